@@ -1,0 +1,268 @@
+"""Ground filtering: CSF tuned automatically, SMRF beside it, a DTM and heights above ground.
+
+The public face of :mod:`pyheracles.groundfilters`. One call, :func:`extract_ground`,
+returns a :class:`GroundResult` whose ``mask`` is aligned with the input points.
+
+Methods
+-------
+``"auto"``
+    The Cloth Simulation Filter with parameters measured on the cloud (point spacing,
+    terrain slope, largest building size): see :func:`auto_csf_params`.
+``"csf"``
+    The Cloth Simulation Filter (Zhang et al. 2016) with :class:`CSFParams`.
+``"smrf"``
+    The Simple Morphological Filter (Pingel et al. 2013) with :class:`SMRFParams`.
+``"none"``
+    No ground (every point is off-ground).
+
+Examples
+--------
+>>> import numpy as np
+>>> from pyheracles.ground import extract_ground
+>>> rng = np.random.default_rng(0)
+>>> xy = rng.uniform(0, 50, (5000, 2))
+>>> roof = (np.abs(xy - 25) < 6).all(axis=1)
+>>> xyz = np.c_[xy, np.where(roof, 8.0, 0.0)]
+>>> result = extract_ground(xyz, method="smrf")
+>>> bool(result.mask[~roof].all()), bool(result.mask[roof].any())
+(True, False)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from pyheracles.errors import InputError
+from pyheracles.groundfilters.auto import (
+    DEFAULT_MAX_OBJECT_SIZE_M,
+    SceneMeasures,
+    auto_csf_params,
+    auto_smrf_params,
+    measure_scene,
+    point_spacing_m,
+)
+from pyheracles.groundfilters.csf import CSFParams, csf
+from pyheracles.groundfilters.smrf import SMRFParams, smrf
+from pyheracles.groundfilters.surface import DTM, Grid, dtm_from_ground, height_above_ground
+
+__all__ = [
+    "DEFAULT_MAX_OBJECT_SIZE_M",
+    "DTM",
+    "GROUND_METHODS",
+    "CSFParams",
+    "GroundResult",
+    "SMRFParams",
+    "SceneMeasures",
+    "auto_csf_params",
+    "auto_smrf_params",
+    "dtm_from_ground",
+    "extract_ground",
+    "height_above_ground",
+    "measure_scene",
+]
+
+GROUND_METHODS = ("auto", "csf", "smrf", "none")
+"""Values accepted by ``extract_ground(method=...)``."""
+
+_CEILING_HEIGHT_M = 2.0
+_CEILING_COVER = 0.97
+
+
+@dataclass(frozen=True, eq=False)
+class GroundResult:
+    """Result of :func:`extract_ground`.
+
+    Attributes
+    ----------
+    mask
+        (N,) bool aligned with the input points; True = ground.
+    method
+        The filter that ran: ``"csf"``, ``"smrf"`` or ``"none"`` (``"auto"`` runs ``"csf"``).
+    params
+        The parameters it ran with (:class:`CSFParams`, :class:`SMRFParams` or None).
+    dtm
+        Terrain model from the ground points (:class:`DTM`), None when there is no ground.
+    scene
+        What the automatic mode measured (:class:`SceneMeasures`), None otherwise.
+    note
+        Why the result holds no ground (or other caveats), empty when nothing to say.
+    """
+
+    mask: NDArray[np.bool_]
+    method: str
+    params: CSFParams | SMRFParams | None
+    dtm: DTM | None
+    scene: SceneMeasures | None = None
+    note: str = ""
+
+    @property
+    def n_ground(self) -> int:
+        """Number of ground points."""
+        return int(self.mask.sum())
+
+    def counts(self) -> dict[str, int]:
+        """``{"ground": ..., "off_ground": ..., "total": ...}``."""
+        n = int(self.mask.size)
+        return {"ground": self.n_ground, "off_ground": n - self.n_ground, "total": n}
+
+
+def _check_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
+    arr = np.asarray(xyz, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(f"points must be an (N, 3) array, got shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise InputError("the point cloud is empty", hint="check the input file and any crop")
+    if not np.isfinite(arr).all():
+        raise InputError(
+            f"{int((~np.isfinite(arr)).any(axis=1).sum())} points have NaN or infinite coordinates",
+            hint="remove them (PointCloud.validate names them) before ground filtering",
+        )
+    return arr
+
+
+def _resolve_params(method: str, params: Any, scene: SceneMeasures | None) -> Any:
+    if method == "none":
+        if params is not None:
+            raise InputError("method='none' takes no parameters")
+        return None
+    if method == "auto":
+        auto = auto_csf_params(scene)  # type: ignore[arg-type]  # measured for 'auto'
+        if params is None:
+            return auto
+        if not isinstance(params, Mapping):
+            raise InputError(
+                "with method='auto', params must be None or a mapping of CSFParams fields to "
+                f"override, got {type(params).__name__}",
+                hint="pass method='csf' with a CSFParams to set every parameter yourself",
+            )
+        known = {f.name for f in fields(CSFParams)}
+        unknown = sorted(set(params) - known)
+        if unknown:
+            raise InputError(
+                f"unknown CSF parameter(s) {unknown}; known: {sorted(known)}",
+            )
+        return replace(auto, **dict(params))
+    expected = CSFParams if method == "csf" else SMRFParams
+    if params is None:
+        return expected()
+    if not isinstance(params, expected):
+        raise InputError(
+            f"method={method!r} needs {expected.__name__} parameters, got {type(params).__name__}"
+        )
+    return params
+
+
+def _surface_note(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: float) -> str:
+    """Why the ground found is not terrain, or '' when it looks like terrain.
+
+    - line-like ground (wall feet, a single scan line): no ground cell has all eight
+      neighbours occupied by ground, so the ground is not a surface;
+    - covered ground (a floor under a ceiling): at least 97 % of the ground cells hold a
+      point more than 2 m above the ground.
+    """
+    grid = Grid.covering(xyz[:, :2], cell_m)
+    row, col = grid.index(xyz[:, :2])
+    occupied = np.zeros(grid.shape, dtype=bool)
+    occupied[row[mask], col[mask]] = True
+    interior = ndimage.binary_erosion(occupied, structure=np.ones((3, 3), bool))
+    if not interior.any():
+        return (
+            "no ground surface: the lowest points form lines (wall feet, a single scan "
+            "line), not an area of terrain"
+        )
+    flat = row * grid.shape[1] + col
+    size = grid.shape[0] * grid.shape[1]
+    low = np.full(size, np.inf)
+    np.minimum.at(low, flat[mask], xyz[mask, 2])
+    high = np.full(size, -np.inf)
+    np.maximum.at(high, flat, xyz[:, 2])
+    ground_cells = occupied.ravel()
+    covered = (high - low)[ground_cells] > _CEILING_HEIGHT_M
+    if ground_cells.sum() >= 9 and covered.mean() >= _CEILING_COVER:
+        return (
+            f"no terrain: {100 * covered.mean():.0f} % of the lowest surface lies under points "
+            f"more than {_CEILING_HEIGHT_M:g} m above it (a floor under a ceiling: a building "
+            "interior)"
+        )
+    return ""
+
+
+def extract_ground(
+    xyz: ArrayLike,
+    method: str = "auto",
+    params: CSFParams | SMRFParams | Mapping[str, Any] | None = None,
+    *,
+    max_object_size_m: float | None = None,
+    dtm_cell_m: float | None = None,
+    rng: np.random.Generator | int | None = None,
+) -> GroundResult:
+    """Classify the ground points of a cloud.
+
+    Parameters
+    ----------
+    xyz
+        (N, 3) float64 points in the LOCAL frame (``PointCloud.xyz``), z up, metres.
+    method
+        One of ``"auto"``, ``"csf"``, ``"smrf"``, ``"none"`` (see the module docstring).
+        Keeping an existing ASPRS classification (``"class"``) is the caller's business.
+    params
+        :class:`CSFParams` for ``"csf"``, :class:`SMRFParams` for ``"smrf"``; for ``"auto"``
+        a mapping of :class:`CSFParams` fields overriding the measured values; None = the
+        defaults (``"csf"``, ``"smrf"``) or the measured values (``"auto"``).
+    max_object_size_m
+        Size of the largest building, metres (e.g. the largest footprint diameter of the
+        GIS layer given to step 1); used by ``"auto"``. None = 36 m.
+    dtm_cell_m
+        Cell size of the returned DTM, metres; None = the filter's cell (cloth resolution
+        or SMRF cell).
+    rng
+        Unused: both filters are deterministic. Accepted for a uniform API.
+
+    Returns
+    -------
+    GroundResult
+        ``mask`` (N,) bool aligned with ``xyz``; ``dtm`` None when there is no ground,
+        with ``note`` saying why (walls only, a single scan line, a building interior).
+
+    Raises
+    ------
+    InputError
+        Unknown method, wrong parameter type, empty cloud, NaN coordinates.
+    """
+    del rng  # deterministic filters
+    if method not in GROUND_METHODS:
+        raise InputError(
+            f"unknown ground method {method!r}; expected one of {', '.join(GROUND_METHODS)}"
+        )
+    if max_object_size_m is not None and not (
+        np.isfinite(max_object_size_m) and max_object_size_m > 0
+    ):
+        raise InputError(f"max_object_size_m must be > 0 metres, got {max_object_size_m!r}")
+    pts = _check_xyz(xyz)
+    n = pts.shape[0]
+    scene = measure_scene(pts, max_object_size_m=max_object_size_m) if method == "auto" else None
+    used = _resolve_params(method, params, scene)
+    if method == "none":
+        return GroundResult(np.zeros(n, dtype=bool), "none", None, None, None, "")
+    if isinstance(used, CSFParams):
+        mask = csf(pts, used)
+        cell = used.cloth_resolution_m
+        ran = "csf"
+    else:
+        mask, _ = smrf(pts, used)
+        cell = used.cell_m
+        ran = "smrf"
+    if dtm_cell_m is not None:
+        cell = float(dtm_cell_m)
+    note = "" if mask.any() else "the filter found no ground point"
+    if not note:
+        note = _surface_note(pts, mask, max(cell, point_spacing_m(pts[:, :2])))
+    if note:
+        return GroundResult(np.zeros(n, dtype=bool), ran, used, None, scene, note)
+    return GroundResult(mask, ran, used, dtm_from_ground(pts, mask, cell), scene, "")

@@ -1,0 +1,142 @@
+"""Ground filter parameters measured from the cloud itself.
+
+Two measurements drive them: the horizontal point spacing (from the density of occupied
+cells) and the terrain slope (from a coarse minimum surface opened with a window larger
+than the largest building, so roofs do not count as hills).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pyheracles.groundfilters.csf import CSFParams
+from pyheracles.groundfilters.smrf import SMRFParams, _opening
+from pyheracles.groundfilters.surface import Grid, inpaint, rasterise
+
+__all__ = [
+    "DEFAULT_MAX_OBJECT_SIZE_M",
+    "SceneMeasures",
+    "auto_csf_params",
+    "auto_smrf_params",
+    "measure_scene",
+    "point_spacing_m",
+    "terrain_slope",
+]
+
+DEFAULT_MAX_OBJECT_SIZE_M = 36.0
+"""Largest building footprint size assumed when none is given, metres (twice PDAL's
+18 m SMRF window radius)."""
+
+
+@dataclass(frozen=True)
+class SceneMeasures:
+    """What the automatic mode measured on a cloud.
+
+    Attributes
+    ----------
+    spacing_m
+        Mean horizontal point spacing, metres.
+    slope
+        Robust (90th percentile) terrain slope, rise over run.
+    max_object_size_m
+        Largest object (building) size used to size the windows, metres.
+    """
+
+    spacing_m: float
+    slope: float
+    max_object_size_m: float
+
+
+def point_spacing_m(xy: NDArray[np.float64]) -> float:
+    """Mean horizontal point spacing, metres: ``sqrt(occupied area / N)``.
+
+    The occupied area counts cells of about four times the spacing that hold a point,
+    so gaps (water, shadows, outside an irregular footprint) do not count. Two passes:
+    a first guess from the bounding box, then the occupied area at that scale.
+    """
+    n = xy.shape[0]
+    extent = np.ptp(xy, axis=0)
+    area = max(float(extent[0] * extent[1]), float(max(extent.max(), 1e-3) ** 2) / n)
+    spacing = np.sqrt(area / n)
+    for _ in range(2):
+        cell = max(4.0 * spacing, 1e-3)
+        grid = Grid.covering(xy, cell)
+        row, col = grid.index(xy)
+        occupied = np.unique(row * grid.shape[1] + col).size
+        spacing = np.sqrt(occupied * cell * cell / n)
+    return float(spacing)
+
+
+def terrain_slope(xyz: NDArray[np.float64], *, spacing_m: float, max_object_size_m: float) -> float:
+    """Robust terrain slope (90th percentile of the cell slopes), rise over run.
+
+    A minimum surface on cells of ``max(1 m, 2 * spacing)`` is opened with a disk of
+    radius ``max_object_size_m / 2`` (removing buildings and trees), then its gradient
+    is taken where the cells held points.
+    """
+    cell = max(1.0, 2.0 * spacing_m)
+    grid = Grid.covering(xyz[:, :2], cell)
+    zmin = rasterise(grid, xyz[:, :2], xyz[:, 2], "min")
+    observed = np.isfinite(zmin)
+    if observed.sum() < 4:
+        return 0.0
+    radius = max(1, int(np.ceil(0.5 * max_object_size_m / cell)))
+    opened = _opening(inpaint(zmin), radius)
+    gy, gx = np.gradient(opened, cell)
+    return float(np.percentile(np.hypot(gx, gy)[observed], 90))
+
+
+def measure_scene(
+    xyz: NDArray[np.float64], *, max_object_size_m: float | None = None
+) -> SceneMeasures:
+    """Measure point spacing and terrain slope.
+
+    See :func:`point_spacing_m` and :func:`terrain_slope`.
+    """
+    size = DEFAULT_MAX_OBJECT_SIZE_M if max_object_size_m is None else float(max_object_size_m)
+    spacing = point_spacing_m(xyz[:, :2])
+    slope = terrain_slope(xyz, spacing_m=spacing, max_object_size_m=size)
+    return SceneMeasures(spacing, slope, size)
+
+
+def auto_csf_params(scene: SceneMeasures) -> CSFParams:
+    """CSF parameters for a measured scene.
+
+    - cloth resolution: the point spacing, at least 0.5 m and at most 2 m (the CSF paper
+      uses 0.5-2 m on airborne data; a finer cloth than the points only adds cost);
+    - rigidness from the terrain slope (CSF's scene types: steep 1, relief 2, flat 3);
+    - class threshold: 0.5 m plus the height change of the terrain over half a cloth cell.
+    """
+    resolution = float(np.clip(scene.spacing_m, 0.5, 2.0))
+    if scene.slope > 0.35:
+        rigidness = 1
+    elif scene.slope > 0.15:
+        rigidness = 2
+    else:
+        rigidness = 3
+    threshold = 0.5 + scene.slope * 0.5 * resolution
+    return CSFParams(
+        cloth_resolution_m=resolution,
+        rigidness=rigidness,
+        class_threshold_m=round(threshold, 3),
+        slope_smooth=True,
+    )
+
+
+def auto_smrf_params(scene: SceneMeasures) -> SMRFParams:
+    """SMRF parameters for a measured scene.
+
+    - cell: the point spacing, between 0.5 m and 2 m (Pingel et al. 2013 use 1 m on the
+      ISPRS samples, spacing 1-1.5 m);
+    - window radius: half the largest object size (a building must fit in the disk);
+    - slope: the measured terrain slope, at least PDAL's 0.15.
+    """
+    cell = float(np.clip(scene.spacing_m, 0.5, 2.0))
+    return SMRFParams(
+        cell_m=cell,
+        slope=max(0.15, round(scene.slope, 3)),
+        window_m=max(2.0 * cell, 0.5 * scene.max_object_size_m),
+    )

@@ -1,0 +1,252 @@
+"""The ground surface as a raster: rasterising points, inpainting holes, sampling heights.
+
+A :class:`DTM` is a north-up grid in the LOCAL frame of the cloud (the frame of
+``PointCloud.xyz``); :meth:`DTM.transform` gives the world affine transform for a
+GeoTIFF once the cloud's offset is added.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage, sparse
+from scipy.sparse.linalg import spsolve
+
+from pyheracles.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from affine import Affine
+
+__all__ = ["DTM", "Grid", "dtm_from_ground", "height_above_ground", "inpaint", "rasterise"]
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A north-up raster geometry in the local frame.
+
+    Attributes
+    ----------
+    x0_m, y0_m
+        Local x of the west edge of column 0 and local y of the north edge of row 0, metres.
+    cell_m
+        Cell size, metres.
+    shape
+        ``(rows, cols)``.
+    """
+
+    x0_m: float
+    y0_m: float
+    cell_m: float
+    shape: tuple[int, int]
+
+    @classmethod
+    def covering(cls, xy: NDArray[np.float64], cell_m: float) -> Grid:
+        """Smallest grid of ``cell_m`` cells that holds every point of ``xy`` (N, 2)."""
+        if not np.isfinite(cell_m) or cell_m <= 0:
+            raise InputError(f"cell size must be a positive number of metres, got {cell_m!r}")
+        lo = xy.min(axis=0)
+        hi = xy.max(axis=0)
+        cols = int(np.floor((hi[0] - lo[0]) / cell_m)) + 1
+        rows = int(np.floor((hi[1] - lo[1]) / cell_m)) + 1
+        return cls(float(lo[0]), float(hi[1]), float(cell_m), (rows, cols))
+
+    def index(self, xy: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Row and column of the cell holding each point (clipped to the grid)."""
+        col = np.floor((xy[:, 0] - self.x0_m) / self.cell_m).astype(np.intp)
+        row = np.floor((self.y0_m - xy[:, 1]) / self.cell_m).astype(np.intp)
+        np.clip(col, 0, self.shape[1] - 1, out=col)
+        np.clip(row, 0, self.shape[0] - 1, out=row)
+        return row, col
+
+    def fractional_index(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(2, N) fractional (row, col) of each point relative to cell centres."""
+        col = (xy[:, 0] - self.x0_m) / self.cell_m - 0.5
+        row = (self.y0_m - xy[:, 1]) / self.cell_m - 0.5
+        return np.vstack([row, col])
+
+
+def rasterise(
+    grid: Grid,
+    xy: NDArray[np.float64],
+    z: NDArray[np.float64],
+    statistic: Literal["min", "max", "mean"] = "min",
+) -> NDArray[np.float64]:
+    """Per-cell statistic of ``z`` over the points falling in each cell; NaN where empty."""
+    if statistic not in ("min", "max", "mean"):
+        raise ValueError(f"statistic must be one of 'min', 'max', 'mean', got {statistic!r}")
+    row, col = grid.index(xy)
+    flat = row * grid.shape[1] + col
+    size = grid.shape[0] * grid.shape[1]
+    if statistic == "mean":
+        count = np.bincount(flat, minlength=size).astype(np.float64)
+        total = np.bincount(flat, weights=z, minlength=size)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = total / count
+    else:
+        out = np.full(size, np.inf if statistic == "min" else -np.inf)
+        (np.minimum if statistic == "min" else np.maximum).at(out, flat, z)
+        out[~np.isfinite(out)] = np.nan
+    return out.reshape(grid.shape)
+
+
+def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Fill the NaN cells of a raster with a harmonic (membrane) surface.
+
+    Every unknown cell takes the mean of its four neighbours, known cells are fixed:
+    the discrete Laplace equation, solved as one sparse system over the unknown cells
+    only. This is the "springs" inpainting Pingel et al. (2013) use for SMRF
+    (D'Errico's ``inpaint_nans``); hand-written because scikit-image's biharmonic
+    inpainting is an order of magnitude slower on rasters with large holes.
+
+    Raises
+    ------
+    InputError
+        If no cell is known.
+    """
+    out = np.array(values, dtype=np.float64, copy=True)
+    unknown = np.isnan(out)
+    n_unknown = int(unknown.sum())
+    if n_unknown == 0:
+        return out
+    if n_unknown == out.size:
+        raise InputError("cannot build a surface: no cell of the raster holds a point")
+    rows, cols = out.shape
+    uid = np.full(out.shape, -1, dtype=np.int64)
+    uid[unknown] = np.arange(n_unknown)
+    ur, uc = np.nonzero(unknown)
+    diag = np.zeros(n_unknown)
+    rhs = np.zeros(n_unknown)
+    i_idx: list[NDArray[np.int64]] = []
+    j_idx: list[NDArray[np.int64]] = []
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        nr, nc = ur + dr, uc + dc
+        inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
+        src = np.nonzero(inside)[0]
+        nr, nc = nr[inside], nc[inside]
+        diag[src] += 1.0
+        nid = uid[nr, nc]
+        is_unknown = nid >= 0
+        i_idx.append(src[is_unknown])
+        j_idx.append(nid[is_unknown])
+        np.add.at(rhs, src[~is_unknown], out[nr[~is_unknown], nc[~is_unknown]])
+    i_all = np.concatenate(i_idx)
+    j_all = np.concatenate(j_idx)
+    ids = np.arange(n_unknown)
+    a = sparse.csr_matrix(
+        (
+            np.concatenate([diag, -np.ones(i_all.size)]),
+            (np.concatenate([ids, i_all]), np.concatenate([ids, j_all])),
+        ),
+        shape=(n_unknown, n_unknown),
+    )
+    out[unknown] = spsolve(a.tocsc(), rhs)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class DTM:
+    """Digital terrain model: a gap-free north-up raster of ground height (local frame).
+
+    Attributes
+    ----------
+    z_m
+        (rows, cols) float64 ground height, metres; holes are inpainted (see
+        :func:`inpaint`), so every cell is finite.
+    grid
+        Geometry of the raster (:class:`Grid`, local frame, metres).
+    observed
+        (rows, cols) bool: True where the cell held at least one ground point.
+    """
+
+    z_m: NDArray[np.float64]
+    grid: Grid
+    observed: NDArray[np.bool_]
+
+    @property
+    def cell_m(self) -> float:
+        """Cell size in metres."""
+        return self.grid.cell_m
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(rows, cols)``."""
+        return self.grid.shape
+
+    def sample(self, xy: NDArray[np.float64], *, order: int = 1) -> NDArray[np.float64]:
+        """Ground height under each point of ``xy`` (N, 2), bilinear (``order=1``) by default.
+
+        Points outside the raster take the height of the nearest edge cell.
+        """
+        xy = np.asarray(xy, dtype=np.float64)
+        return ndimage.map_coordinates(
+            self.z_m, self.grid.fractional_index(xy), order=order, mode="nearest"
+        )
+
+    def slope(self) -> NDArray[np.float64]:
+        """Terrain slope per cell as rise over run (dimensionless, 1.0 = 45°)."""
+        gy, gx = np.gradient(self.z_m, self.grid.cell_m)
+        return np.hypot(gx, gy)
+
+    def transform(self, offset: NDArray[np.float64] | None = None) -> Affine:
+        """Affine transform (rasterio convention) of the raster in the world frame.
+
+        Parameters
+        ----------
+        offset
+            The cloud's offset (``PointCloud.offset``) added to the local frame; None = local.
+        """
+        from affine import Affine
+
+        ox, oy = (0.0, 0.0) if offset is None else (float(offset[0]), float(offset[1]))
+        g = self.grid
+        return Affine(g.cell_m, 0.0, g.x0_m + ox, 0.0, -g.cell_m, g.y0_m + oy)
+
+
+def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: float) -> DTM:
+    """Raster the ground points of a cloud into a gap-free :class:`DTM`.
+
+    Parameters
+    ----------
+    xyz
+        (N, 3) float64 points in the local frame, metres.
+    mask
+        (N,) bool, True for ground points.
+    cell_m
+        Cell size in metres.
+
+    Returns
+    -------
+    DTM
+        Covering the extent of ALL points (so every point has a ground height); each
+        cell holds the mean height of its ground points, empty cells are inpainted.
+
+    Raises
+    ------
+    InputError
+        If the mask selects no point or does not match ``xyz``.
+    """
+    xyz = np.asarray(xyz, dtype=np.float64)
+    mask = np.asarray(mask, dtype=bool)
+    if xyz.ndim != 2 or xyz.shape[1] != 3 or mask.shape != (xyz.shape[0],):
+        raise InputError(
+            f"xyz must be (N, 3) and mask (N,), got {xyz.shape} and {mask.shape}",
+        )
+    if not mask.any():
+        raise InputError(
+            "no ground point: a terrain model needs ground",
+            hint="use method='none' for clouds without ground (building interiors) "
+            "or check the ground filter parameters",
+        )
+    grid = Grid.covering(xyz[:, :2], cell_m)
+    z = rasterise(grid, xyz[mask, :2], xyz[mask, 2], "mean")
+    observed = np.isfinite(z)
+    return DTM(inpaint(z), grid, observed)
+
+
+def height_above_ground(xyz: NDArray[np.float64], dtm: DTM) -> NDArray[np.float64]:
+    """Height of each point above the terrain model (negative below it), metres."""
+    xyz = np.asarray(xyz, dtype=np.float64)
+    return xyz[:, 2] - dtm.sample(xyz[:, :2])
