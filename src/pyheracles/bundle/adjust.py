@@ -1,0 +1,731 @@
+"""Sparse bundle adjustment with self-calibration (Gauss-Newton, Armijo, Levenberg-Marquardt).
+
+The normal equations are reduced to the camera parameters with the Schur
+complement on the object points (each point is a 3x3 block), solved by a
+Cholesky factorisation of the small camera system, and back-substituted.  The
+damping schemes are those of DBAT (Börlin & Grussenmeyer 2013): undamped
+Gauss-Newton ("gn"), Gauss-Newton with an Armijo line search ("gna", the
+default) and Levenberg-Marquardt ("lm").  The termination test is DBAT's
+relative one: ``||J p|| <= tol ||r||``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+
+from pyheracles.bundle.camera import IO_NAMES, image_residuals
+from pyheracles.bundle.initial import (
+    centre_rotation,
+    forward_intersection,
+    ideal_rays,
+    spatial_resection,
+)
+from pyheracles.bundle.project import Project
+from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
+
+__all__ = ["BundleParameters", "BundleResult", "bundle_adjust", "prepare_network"]
+
+DAMPINGS = ("gna", "lm", "gn")
+EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
+
+
+@dataclass(frozen=True)
+class BundleParameters:
+    """Settings of :func:`bundle_adjust` (defaults are DBAT's).
+
+    Parameters
+    ----------
+    damping
+        "gna" (Gauss-Newton with Armijo line search, DBAT default), "lm"
+        (Levenberg-Marquardt) or "gn" (undamped Gauss-Newton).
+    max_iterations
+        Maximum number of iterations (DBAT: 20).
+    tolerance
+        Relative termination tolerance ``||J p|| <= tol ||r||`` (DBAT: 1e-6).
+    armijo_mu
+        Sufficient-decrease constant of the line search (DBAT: 0.1).
+    alpha_min
+        Shortest step length of the line search (DBAT: 1e-9).
+    lm_lambda0
+        Initial Levenberg-Marquardt damping, relative to the normal matrix diagonal.
+    estimate_io
+        Interior parameters to estimate for every camera (names of
+        :data:`~pyheracles.bundle.camera.IO_NAMES`, "pp" = px and py); None keeps the
+        project's own choice (a DBAT script's), an empty tuple fixes the cameras.
+    datum
+        "auto" (control points if the project has at least 3 fixed or weighted
+        ones, else dependent relative orientation), "control" or "depend".
+    min_rays
+        Tie points seen by fewer images are dropped with a warning.
+    covariance
+        Compute the posterior covariance (IO, EO, every object point's 3x3 block).
+    """
+
+    damping: str = "gna"
+    max_iterations: int = 20
+    tolerance: float = 1e-6
+    armijo_mu: float = 0.1
+    alpha_min: float = 1e-9
+    lm_lambda0: float = 1e-3
+    estimate_io: tuple[str, ...] | None = None
+    datum: str = "auto"
+    min_rays: int = 2
+    covariance: bool = True
+
+    def __post_init__(self) -> None:
+        if self.damping not in DAMPINGS:
+            raise InputError(f"unknown damping '{self.damping}'; choose one of {list(DAMPINGS)}")
+        if self.datum not in ("auto", "control", "depend"):
+            raise InputError(f"unknown datum '{self.datum}'; choose auto, control or depend")
+        if self.max_iterations < 1 or not (0 < self.tolerance < 1):
+            raise InputError("max_iterations must be >= 1 and 0 < tolerance < 1")
+
+
+@dataclass
+class Network:
+    """Arrays of the adjustment problem (free-parameter layout and observations)."""
+
+    project: Project
+    model: int
+    uv_mm: np.ndarray  # (m,2) measured, scaled to mm, y flipped
+    sqrt_w: np.ndarray  # (m,2) 1 / sigma_mm
+    obs_cam: np.ndarray  # (m,) camera index of each observation
+    io_free: np.ndarray  # (ncam,10)
+    eo_free: np.ndarray  # (n,6)
+    op_free: np.ndarray  # (N,3)
+    io_col: np.ndarray  # (ncam,10) column in the camera system or -1
+    eo_col: np.ndarray  # (n,6)
+    n_cam_cols: int
+    eo_prior: np.ndarray  # (n,6) prior values, std in eo_prior_std (NaN = none)
+    eo_prior_std: np.ndarray
+    op_prior: np.ndarray
+    op_prior_std: np.ndarray
+    datum: str
+    fixed_coordinate: tuple[int, int] | None = None  # (image, axis) for "depend"
+
+    @property
+    def n_free(self) -> int:
+        return int(self.io_free.sum() + self.eo_free.sum() + self.op_free.sum())
+
+    @property
+    def n_prior(self) -> int:
+        return int(np.isfinite(self.eo_prior_std).sum() + np.isfinite(self.op_prior_std).sum())
+
+
+@dataclass
+class BundleResult:
+    """Outcome of :func:`bundle_adjust`.
+
+    Attributes
+    ----------
+    converged, iterations, status
+        Convergence flag, number of iterations, and a text status.
+    sigma0
+        Posterior standard deviation of unit weight (sqrt(r'Wr / redundancy)).
+    redundancy, n_observations, n_parameters
+        Degrees of freedom, observation count (image coordinates + prior
+        observations), unknown count.
+    io, eo, xyz
+        Estimated interior (ncam,10), exterior (n,6) orientation, points (N,3).
+    io_std, eo_std, xyz_std
+        Posterior standard deviations (0 for fixed parameters).
+    cov_io_eo
+        Posterior covariance of the camera parameters in the column order of
+        ``network.io_col`` / ``network.eo_col`` (free parameters only).
+    cov_xyz
+        (N,3,3) posterior covariance of each object point.
+    residuals_px
+        (m,2) image residuals (projected - measured) in pixels.
+    history
+        Weighted residual norm per iteration, step lengths (gna) or damping (lm).
+    timings
+        Seconds per stage.
+    """
+
+    project: Project
+    network: Network
+    parameters: BundleParameters
+    converged: bool
+    iterations: int
+    status: str
+    sigma0: float
+    redundancy: int
+    n_observations: int
+    n_parameters: int
+    io: np.ndarray
+    eo: np.ndarray
+    xyz: np.ndarray
+    io_std: np.ndarray | None = None
+    eo_std: np.ndarray | None = None
+    xyz_std: np.ndarray | None = None
+    cov_cam: np.ndarray | None = None
+    cov_xyz: np.ndarray | None = None
+    residuals_px: np.ndarray | None = None
+    weighted_residuals: np.ndarray | None = None
+    history: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+    rank_deficiency: list = field(default_factory=list)
+
+    @property
+    def cameras(self):
+        return tuple(c.with_io(io) for c, io in zip(self.project.cameras, self.io, strict=True))
+
+
+# ---------------------------------------------------------------------------
+# Problem set-up
+# ---------------------------------------------------------------------------
+
+
+def _choose_datum(project: Project, params: BundleParameters) -> str:
+    n_ctrl = int(
+        np.sum(
+            (project.point_role == "control")
+            & np.all(np.isfinite(project.xyz), axis=1)
+            & np.all(np.isfinite(project.xyz_std), axis=1)
+        )
+    )
+    if params.datum == "control" or (params.datum == "auto" and project.datum == "control"):
+        if n_ctrl < 3:
+            raise DegenerateGeometryError(
+                f"datum by control points needs at least 3 control points, found {n_ctrl}",
+                path=project.source,
+                hint="add control points (--control) or use the 'depend' datum",
+            )
+        return "control"
+    if params.datum == "depend" or project.datum == "depend":
+        return "depend"
+    return "control" if n_ctrl >= 3 else "depend"
+
+
+def _initial_values(project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray) -> Project:
+    """Resect images without EO and intersect points without coordinates."""
+    cams = project.cameras
+    model = cams[0].model
+    io_all = np.array([c.io_vector() for c in cams])
+    eo = project.eo.copy()
+    xyz = project.xyz.copy()
+    known = np.all(np.isfinite(xyz), axis=1) & (project.point_role == "control")
+    need = ~np.all(np.isfinite(eo), axis=1)
+    if project.needs_resection:
+        need[:] = True
+    for i in np.flatnonzero(need):
+        sel = (project.obs_image == i) & known[project.obs_point]
+        if sel.sum() < 4:
+            raise InputError(
+                f"image {project.image_ids[i]} has no prior exterior orientation and sees "
+                f"only {int(sel.sum())} control points (4 needed for a resection)",
+                path=project.source,
+                hint="give prior EO (initial_eo file) or more control points",
+            )
+        eo[i] = spatial_resection(
+            xyz[project.obs_point[sel]], uv_mm[sel], io_all[project.image_camera[i]], model
+        )
+    # Intersect every free point that has no prior observation (as DBAT does).
+    inter = (project.point_role != "control") | ~np.all(np.isfinite(xyz), axis=1)
+    if np.any(inter):
+        sel = inter[project.obs_point]
+        centres, rots = centre_rotation(eo)
+        img = project.obs_image[sel]
+        rays = ideal_rays(uv_mm[sel], io_all[obs_cam[sel]], model)
+        idx = np.cumsum(inter) - 1
+        pts = forward_intersection(
+            centres[img], rots[img], rays, idx[project.obs_point[sel]], int(inter.sum())
+        )
+        xyz[inter] = pts
+        bad = inter.copy()
+        bad[inter] = ~np.all(np.isfinite(pts), axis=1)
+        if np.any(bad):
+            raise DegenerateGeometryError(
+                f"{int(bad.sum())} point(s) cannot be intersected (parallel rays), ids "
+                f"{project.point_ids[bad][:10].tolist()}",
+                path=project.source,
+            )
+    return project.replace(eo=eo, xyz=xyz)
+
+
+def prepare_network(project: Project, params: BundleParameters | None = None) -> Network:
+    """Validate the project, compute initial values and the free-parameter layout."""
+    params = params or BundleParameters()
+    project = project.validate(params.min_rays)
+    if params.estimate_io is not None:
+        project = project.with_estimated_io(params.estimate_io)
+    cams = project.cameras
+    model = cams[0].model
+    if model not in (1, 2, 3, 4, 5):
+        raise InputError(f"unsupported lens distortion model {model}", path=project.source)
+    obs_cam = project.image_camera[project.obs_image]
+    pix = np.array([c.pixel_size_mm for c in cams])
+    # DBAT scales both axes by the x pixel size (square pixels; the aspect is a parameter).
+    s = pix[obs_cam, 0]
+    uv_mm = np.column_stack([project.obs_uv_px[:, 0] * s, -project.obs_uv_px[:, 1] * s])
+    sqrt_w = 1.0 / (project.obs_std_px * pix[obs_cam])
+    if not np.all(np.isfinite(sqrt_w)) or np.any(project.obs_std_px <= 0):
+        raise InputError("image observation standard deviations must be > 0", path=project.source)
+    project = _initial_values(project, uv_mm, obs_cam)
+
+    io_free = project.estimate_io.copy()
+    if model in (1, 2):
+        io_free[:, 3:5] = False
+    eo_free = project.estimate_eo.copy()
+    role = project.point_role
+    op_free = np.ones((project.n_points, 3), bool)
+    op_prior = np.full((project.n_points, 3), np.nan)
+    op_prior_std = np.full((project.n_points, 3), np.nan)
+    ctrl = role == "control"
+    std = project.xyz_std
+    fixed = ctrl[:, None] & np.isfinite(std) & (std == 0)
+    weighted = ctrl[:, None] & np.isfinite(std) & (std > 0)
+    datum = _choose_datum(project, params)
+    fixed_coord = None
+    if datum == "control":
+        op_free &= ~fixed
+        op_prior[weighted] = project.xyz[weighted]
+        op_prior_std[weighted] = std[weighted]
+    else:
+        # Dependent relative orientation: fix the reference image and the largest
+        # positive coordinate offset of another image from it (DBAT 'longest').
+        ref = project.ref_image
+        off = project.eo[:, :3] - project.eo[ref, :3]
+        img, axis = np.unravel_index(int(np.argmax(off)), off.shape)
+        eo_free[:] = True
+        eo_free[ref] = False
+        eo_free[img, axis] = False
+        fixed_coord = (int(img), int(axis))
+    eo_prior = np.where(np.isfinite(project.eo_std) & eo_free, project.eo, np.nan)
+    eo_prior_std = np.where(np.isfinite(project.eo_std) & eo_free, project.eo_std, np.nan)
+    eo_prior_std[eo_prior_std <= 0] = np.nan
+
+    io_col = np.full(io_free.shape, -1)
+    io_col[io_free] = np.arange(io_free.sum())
+    eo_col = np.full(eo_free.shape, -1)
+    eo_col[eo_free] = io_free.sum() + np.arange(eo_free.sum())
+    return Network(
+        project=project,
+        model=model,
+        uv_mm=uv_mm,
+        sqrt_w=sqrt_w,
+        obs_cam=obs_cam,
+        io_free=io_free,
+        eo_free=eo_free,
+        op_free=op_free,
+        io_col=io_col,
+        eo_col=eo_col,
+        n_cam_cols=int(io_free.sum() + eo_free.sum()),
+        eo_prior=eo_prior,
+        eo_prior_std=eo_prior_std,
+        op_prior=op_prior,
+        op_prior_std=op_prior_std,
+        datum=datum,
+        fixed_coordinate=fixed_coord,
+    )
+
+
+# ---------------------------------------------------------------------------
+# Residuals and normal equations
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class _State:
+    io: np.ndarray
+    eo: np.ndarray
+    xyz: np.ndarray
+
+    def copy(self) -> _State:
+        return _State(self.io.copy(), self.eo.copy(), self.xyz.copy())
+
+
+def _residuals(net: Network, st: _State, jacobian: bool = False):
+    p = net.project
+    out = image_residuals(
+        st.io[net.obs_cam],
+        st.eo[p.obs_image],
+        st.xyz[p.obs_point],
+        net.uv_mm,
+        net.model,
+        jacobian=jacobian,
+    )
+    res, jac = out if jacobian else (out, None)
+    r_img = res * net.sqrt_w
+    eo_m = np.isfinite(net.eo_prior_std)
+    op_m = np.isfinite(net.op_prior_std)
+    r_eo = ((st.eo - net.eo_prior) / net.eo_prior_std)[eo_m]
+    r_op = ((st.xyz - net.op_prior) / net.op_prior_std)[op_m]
+    r = np.concatenate([r_img.ravel(), r_eo, r_op])
+    return r, jac
+
+
+@dataclass
+class _Normal:
+    """Schur-reduced normal equations at one point of the parameter space."""
+
+    a_inv: np.ndarray  # (N,3,3) inverse point blocks (fixed coordinates masked)
+    b: sp.csr_matrix  # (3N, nc) point-camera coupling
+    t: sp.csr_matrix  # a_inv @ b
+    s: np.ndarray  # (nc,nc) reduced camera matrix
+    g_op: np.ndarray  # (N,3) J^T r point part
+    g_cam: np.ndarray  # (nc,) J^T r camera part
+    diag_a: np.ndarray  # (N,3)
+    a: np.ndarray  # (N,3,3)
+    c: np.ndarray  # (nc,nc) camera block of J^T J
+
+
+def _normal_equations(net: Network, st: _State, r: np.ndarray, jac) -> _Normal:
+    p = net.project
+    d_xyz, d_eo, d_io = jac
+    w = net.sqrt_w[:, :, None]
+    jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
+    je = d_eo * w
+    ji = d_io * w
+    m = jp.shape[0]
+    npt = p.n_points
+    r_img = r[: 2 * m].reshape(m, 2)
+    # Point blocks A_i = sum Jp^T Jp, gradient g_i = sum Jp^T r.
+    jtj = np.einsum("mki,mkj->mij", jp, jp)
+    a = np.zeros((npt, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            a[:, i, j] = np.bincount(p.obs_point, weights=jtj[:, i, j], minlength=npt)
+            a[:, j, i] = a[:, i, j]
+    jtr = np.einsum("mki,mk->mi", jp, r_img)
+    g_op = np.column_stack(
+        [np.bincount(p.obs_point, weights=jtr[:, i], minlength=npt) for i in range(3)]
+    )
+    # Weighted object-point priors.
+    op_m = np.isfinite(net.op_prior_std)
+    if np.any(op_m):
+        wgt = np.where(op_m, 1.0 / net.op_prior_std**2, 0.0)
+        resid = np.where(op_m, (st.xyz - net.op_prior) / net.op_prior_std**2, 0.0)
+        a[:, [0, 1, 2], [0, 1, 2]] += wgt
+        g_op += resid
+    # Fixed coordinates: identity rows, zero gradient.
+    fixed = ~net.op_free
+    a[fixed.nonzero()[0], fixed.nonzero()[1], fixed.nonzero()[1]] = 1.0
+    g_op[fixed] = 0.0
+    diag_a = a[:, [0, 1, 2], [0, 1, 2]].copy()
+
+    # Camera columns of each observation.
+    cols = np.concatenate([net.io_col[net.obs_cam], net.eo_col[p.obs_image]], axis=1)  # (m,16)
+    jc = np.concatenate([ji, je], axis=2)  # (m,2,16)
+    valid = cols >= 0
+    nc = net.n_cam_cols
+    rows = np.repeat(np.arange(2 * m).reshape(m, 2, 1), cols.shape[1], axis=2)
+    colb = np.broadcast_to(cols[:, None, :], jc.shape)
+    vb = np.broadcast_to(valid[:, None, :], jc.shape)
+    jc_sp = sp.csr_matrix((jc[vb], (rows[vb], colb[vb])), shape=(2 * m, nc))
+    prow = np.repeat(np.arange(2 * m).reshape(m, 2, 1), 3, axis=2)
+    pcol = (3 * p.obs_point)[:, None, None] + np.arange(3)[None, None, :]
+    pcol = np.broadcast_to(pcol, jp.shape)
+    jp_sp = sp.csr_matrix((jp.ravel(), (prow.ravel(), pcol.ravel())), shape=(2 * m, 3 * npt))
+    c = (jc_sp.T @ jc_sp).toarray()
+    g_cam = jc_sp.T @ r_img.ravel()
+    b = (jp_sp.T @ jc_sp).tocsr()
+    # Weighted EO priors.
+    eo_m = np.isfinite(net.eo_prior_std)
+    if np.any(eo_m):
+        idx = net.eo_col[eo_m]
+        c[idx, idx] += 1.0 / net.eo_prior_std[eo_m] ** 2
+        g_cam[idx] += (st.eo[eo_m] - net.eo_prior[eo_m]) / net.eo_prior_std[eo_m] ** 2
+    return _Normal(
+        a_inv=np.empty(0),
+        b=b,
+        t=sp.csr_matrix((3 * npt, nc)),
+        s=np.empty(0),
+        g_op=g_op,
+        g_cam=g_cam,
+        diag_a=diag_a,
+        a=a,
+        c=c,
+    )
+
+
+def _reduce(ne: _Normal, lam: float = 0.0) -> None:
+    """Form the Schur complement (optionally with Marquardt damping ``lam``)."""
+    a = ne.a
+    c = ne.c
+    if lam > 0:
+        a = a.copy()
+        a[:, [0, 1, 2], [0, 1, 2]] *= 1.0 + lam
+        c = c.copy()
+        c[np.diag_indices_from(c)] *= 1.0 + lam
+    det = np.linalg.det(a)
+    scale = np.einsum("nii->n", a) ** 3
+    bad = ~(np.abs(det) > 1e-14 * np.abs(scale))
+    if np.any(bad):
+        raise DegenerateGeometryError(
+            f"{int(bad.sum())} object point(s) are undetermined (singular 3x3 normal block)"
+        )
+    ne.a_inv = np.linalg.inv(a)
+    npt = a.shape[0]
+    ainv_sp = sp.bsr_matrix(
+        (ne.a_inv, np.arange(npt), np.arange(npt + 1)), shape=(3 * npt, 3 * npt)
+    ).tocsr()
+    ne.t = (ainv_sp @ ne.b).tocsr()
+    ne.s = c - (ne.b.T @ ne.t).toarray()
+
+
+def _cholesky(s: np.ndarray):
+    """Jacobi-scaled Cholesky factor of the reduced matrix; None when not positive definite."""
+    d = np.sqrt(np.clip(np.diag(s), 1e-300, None))
+    ss = s / d[:, None] / d[None, :]
+    try:
+        fac = scipy.linalg.cho_factor(ss, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None, d
+    if not np.all(np.isfinite(fac[0])) or np.min(np.abs(np.diag(fac[0]))) < 1e-9:
+        return None, d
+    return fac, d
+
+
+def _solve(ne: _Normal, fac, d) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Newton step (dx_op (N,3), dx_cam (nc,)) for N dx = -J^T r."""
+    rhs = -(ne.g_cam - ne.t.T @ ne.g_op.ravel())
+    if rhs.size:
+        dc = scipy.linalg.cho_solve(fac, rhs / d, check_finite=False) / d
+    else:
+        dc = rhs
+    tmp = -ne.g_op.ravel() - ne.b @ dc
+    dp = np.einsum("nij,nj->ni", ne.a_inv, tmp.reshape(-1, 3))
+    return dp, dc
+
+
+def _apply(net: Network, st: _State, dp: np.ndarray, dc: np.ndarray, alpha: float) -> _State:
+    new = st.copy()
+    new.xyz += alpha * dp * net.op_free
+    if dc.size:
+        new.io[net.io_free] += alpha * dc[net.io_col[net.io_free]]
+        new.eo[net.eo_free] += alpha * dc[net.eo_col[net.eo_free]]
+    return new
+
+
+def _rank_report(net: Network, s: np.ndarray) -> list[dict]:
+    """Name the camera parameters in the near-null space of the reduced matrix."""
+    d = np.sqrt(np.clip(np.diag(s), 1e-300, None))
+    ss = s / d[:, None] / d[None, :]
+    vals, vecs = np.linalg.eigh(ss)
+    names = _camera_param_names(net)
+    out = []
+    tol = 1e-10 * max(vals.max(), 1.0)
+    for k in np.flatnonzero(vals < tol)[:6]:
+        v = vecs[:, k]
+        order = np.argsort(-np.abs(v))
+        thr = 0.5 * (np.abs(v[order[0]]) + np.sqrt(1.0 / v.size))
+        out.append(
+            {
+                "eigenvalue": float(vals[k]),
+                "parameters": [names[i] for i in order if abs(v[i]) > thr][:12],
+            }
+        )
+    return out
+
+
+def _camera_param_names(net: Network) -> list[str]:
+    names = [""] * net.n_cam_cols
+    for ci, j in zip(*np.nonzero(net.io_free), strict=True):
+        names[net.io_col[ci, j]] = f"camera {net.project.cameras[ci].id} {IO_NAMES[j]}"
+    for ii, j in zip(*np.nonzero(net.eo_free), strict=True):
+        names[net.eo_col[ii, j]] = f"image {net.project.image_ids[ii]} {EO_NAMES[j]}"
+    return names
+
+
+# ---------------------------------------------------------------------------
+# Driver
+# ---------------------------------------------------------------------------
+
+
+def bundle_adjust(project: Project, params: BundleParameters | None = None) -> BundleResult:
+    """Bundle adjustment with self-calibration and posterior statistics.
+
+    Parameters
+    ----------
+    project
+        The network (see the readers in :mod:`pyheracles.bundle.readers`).
+    params
+        Settings; defaults reproduce DBAT's (GNA damping, 20 iterations, 1e-6).
+
+    Returns
+    -------
+    BundleResult
+
+    Raises
+    ------
+    InputError, DegenerateGeometryError
+        Inconsistent project, too few control points for the datum, undetermined
+        points or parameters (the message names them).
+    EstimationError
+        No convergence within ``max_iterations``.
+
+    Examples
+    --------
+    >>> from pyheracles.bundle import read_project, bundle_adjust
+    >>> res = bundle_adjust(read_project("romabundledemo.xml"))  # doctest: +SKIP
+    >>> round(res.sigma0, 4)  # doctest: +SKIP
+    0.5828
+    """
+    params = params or BundleParameters()
+    t0 = time.perf_counter()
+    net = prepare_network(project, params)
+    p = net.project
+    st = _State(np.array([c.io_vector() for c in p.cameras]), p.eo.copy(), p.xyz.copy())
+    timings = {"setup": time.perf_counter() - t0}
+    t1 = time.perf_counter()
+    r, jac = _residuals(net, st, jacobian=True)
+    norms = [float(np.linalg.norm(r))]
+    alphas: list[float] = []
+    lambdas: list[float] = []
+    n_iter = 0
+    converged = False
+    status = "ok"
+    lam = params.lm_lambda0 if params.damping == "lm" else 0.0
+    while True:
+        ne = _normal_equations(net, st, r, jac)
+        _reduce(ne)
+        fac, d = _cholesky(ne.s)
+        if fac is None:
+            deficiency = _rank_report(net, ne.s)
+            names = "; ".join(", ".join(x["parameters"]) for x in deficiency) or "unknown"
+            raise DegenerateGeometryError(
+                f"the normal equations are rank deficient: undetermined parameter "
+                f"combination(s): {names}",
+                path=p.source,
+                hint="fix some interior parameters (--estimate) or add control points",
+            )
+        dp, dc = _solve(ne, fac, d)
+        g = np.concatenate([ne.g_op.ravel(), ne.g_cam])
+        step = np.concatenate([(dp * net.op_free).ravel(), dc])
+        fp0 = float(g @ step)  # = -||J p||^2 for the Gauss-Newton step
+        if np.sqrt(max(-fp0, 0.0)) <= params.tolerance * np.linalg.norm(r):
+            converged = True
+            break
+        if n_iter >= params.max_iterations:
+            status = f"no convergence after {n_iter} iterations"
+            break
+        n_iter += 1
+        f0 = 0.5 * float(r @ r)
+        if params.damping == "gn":
+            st = _apply(net, st, dp, dc, 1.0)
+            alphas.append(1.0)
+        elif params.damping == "gna":
+            alpha = 1.0
+            while alpha >= params.alpha_min:
+                trial = _apply(net, st, dp, dc, alpha)
+                rt, _ = _residuals(net, trial)
+                if 0.5 * float(rt @ rt) < f0 + params.armijo_mu * alpha * fp0:
+                    break
+                alpha /= 2
+            else:
+                status = "line search failed"
+                break
+            st = trial
+            alphas.append(alpha)
+        else:  # Levenberg-Marquardt (Marquardt scaling of the diagonal)
+            while True:
+                ne_l = _Normal(**{k: getattr(ne, k) for k in ne.__dataclass_fields__})
+                _reduce(ne_l, lam)
+                fac_l, d_l = _cholesky(ne_l.s)
+                if fac_l is not None:
+                    dpl, dcl = _solve(ne_l, fac_l, d_l)
+                    trial = _apply(net, st, dpl, dcl, 1.0)
+                    rt, _ = _residuals(net, trial)
+                    if float(rt @ rt) < 2 * f0:
+                        lam = max(lam / 10, 1e-12)
+                        break
+                lam *= 10
+                if lam > 1e12:
+                    status = "damping diverged"
+                    break
+            if status != "ok":
+                break
+            st = trial
+            lambdas.append(lam)
+        r, jac = _residuals(net, st, jacobian=True)
+        norms.append(float(np.linalg.norm(r)))
+    timings["adjust"] = time.perf_counter() - t1
+    if not converged:
+        raise EstimationError(
+            f"{p.source}: bundle adjustment did not converge ({status}); "
+            f"residual norms {np.round(norms, 3).tolist()}"
+        )
+    m_obs = 2 * p.n_observations + net.n_prior
+    n_par = net.n_free
+    dof = m_obs - n_par
+    if dof <= 0:
+        raise DegenerateGeometryError(
+            f"no redundancy ({m_obs} observations, {n_par} unknowns)", path=p.source
+        )
+    sigma0 = float(np.sqrt(r @ r / dof))
+    res_mm = r[: 2 * p.n_observations].reshape(-1, 2) / net.sqrt_w
+    pix = np.array([c.pixel_size_mm for c in p.cameras])[net.obs_cam]
+    result = BundleResult(
+        project=p,
+        network=net,
+        parameters=params,
+        converged=converged,
+        iterations=n_iter,
+        status=status,
+        sigma0=sigma0,
+        redundancy=int(dof),
+        n_observations=int(m_obs),
+        n_parameters=int(n_par),
+        io=st.io,
+        eo=st.eo,
+        xyz=st.xyz,
+        residuals_px=res_mm / pix,
+        weighted_residuals=r,
+        history={"residual_norm": norms, "alpha": alphas, "lambda": lambdas},
+        timings=timings,
+    )
+    if params.covariance:
+        t2 = time.perf_counter()
+        _posterior(result, ne, fac, d)
+        timings["covariance"] = time.perf_counter() - t2
+    timings["total"] = time.perf_counter() - t0
+    return result
+
+
+def _posterior(res: BundleResult, ne: _Normal, fac, d, chunk: int = 20000) -> None:
+    """Posterior covariance: camera block and each point's 3x3 block, times sigma0^2."""
+    net = res.network
+    s02 = res.sigma0**2
+    nc = net.n_cam_cols
+    if nc:
+        inv_scaled = scipy.linalg.cho_solve(fac, np.eye(nc), check_finite=False)
+        cov_cam = inv_scaled / d[:, None] / d[None, :]
+    else:
+        cov_cam = np.zeros((0, 0))
+    # Point blocks: A^-1 + T_i S^-1 T_i^T, computed in chunks of rows of T.
+    npt = ne.a_inv.shape[0]
+    cov_p = ne.a_inv.copy()
+    t = ne.t
+    for start in range(0, npt, chunk):
+        stop = min(npt, start + chunk)
+        tb = t[3 * start : 3 * stop]
+        y = np.asarray(tb @ cov_cam)  # (3k, nc)
+        coo = tb.tocoo()
+        k = stop - start
+        pt = coo.row // 3
+        base = pt * 9 + coo.row % 3
+        acc = np.zeros(9 * k)
+        for b_idx in range(3):
+            vals = coo.data * y[3 * pt + b_idx, coo.col]
+            acc += np.bincount(base + 3 * b_idx, weights=vals, minlength=9 * k)
+        acc = acc.reshape(k, 3, 3)
+        cov_p[start:stop] += acc
+    fixed = ~net.op_free
+    cov_p[fixed.nonzero()[0], fixed.nonzero()[1], :] = 0.0
+    cov_p[fixed.nonzero()[0], :, fixed.nonzero()[1]] = 0.0
+    res.cov_cam = s02 * cov_cam
+    res.cov_xyz = s02 * cov_p
+    var_cam = np.diag(res.cov_cam)
+    io_std = np.zeros_like(res.io)
+    io_std[net.io_free] = np.sqrt(np.clip(var_cam[net.io_col[net.io_free]], 0, None))
+    eo_std = np.zeros_like(res.eo)
+    eo_std[net.eo_free] = np.sqrt(np.clip(var_cam[net.eo_col[net.eo_free]], 0, None))
+    res.io_std = io_std
+    res.eo_std = eo_std
+    res.xyz_std = np.sqrt(np.clip(np.einsum("nii->ni", res.cov_xyz), 0, None))

@@ -1,0 +1,199 @@
+"""The photogrammetric project: cameras, images, object points and image observations.
+
+A :class:`Project` is what every reader returns and what :func:`bundle_adjust`
+takes.  It stores data and the processing choices that come with some formats
+(a DBAT script says which parameters to estimate and which datum to use);
+everything is in the units of :mod:`pyheracles.bundle.camera` (mm, m, radians,
+pixels).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pyheracles.bundle.camera import IO_NAMES, Camera
+from pyheracles.errors import InputError
+
+__all__ = ["BundleWarning", "Project"]
+
+ROLES = ("tie", "control", "check")
+
+
+class BundleWarning(UserWarning):
+    """Something in the project was dropped or changed to make it processable."""
+
+
+@dataclass(frozen=True)
+class Project:
+    """A photogrammetric network.
+
+    Attributes
+    ----------
+    name, source
+        Project name and the file it was read from.
+    cameras
+        The physical cameras.
+    image_ids, image_names, image_camera
+        (n,) image ids, file names and index into ``cameras``.
+    eo
+        (n,6) initial exterior orientation X0, Y0, Z0 (object units), omega, phi,
+        kappa (radians); NaN where unknown.
+    eo_std
+        (n,6) prior standard deviations of ``eo`` used as weighted observations;
+        NaN = not observed.
+    point_ids, point_labels
+        (N,) object point ids and labels (control point names).
+    xyz
+        (N,3) initial or known object coordinates; NaN where unknown.
+    xyz_std
+        (N,3) prior standard deviations of control/check coordinates: 0 = fixed,
+        > 0 = weighted observation, NaN = free unknown.
+    point_role
+        (N,) "tie", "control" or "check".  Check points are estimated from their
+        image observations only and compared with their reference coordinates.
+    obs_image, obs_point
+        (m,) image and point index of each image observation.
+    obs_uv_px
+        (m,2) measured image coordinates in pixels (origin upper-left, y down).
+    obs_std_px
+        (m,2) a priori standard deviation of each coordinate, pixels.
+    estimate_io
+        (ncam,10) which interior parameters to estimate (:data:`IO_NAMES`).
+    estimate_eo
+        (n,6) which exterior parameters to estimate (before the datum is applied).
+    datum
+        "control", "depend" (dependent relative orientation) or None (decide from
+        the control points).
+    ref_image
+        Index of the reference image for the "depend" datum.
+    needs_resection
+        The script asked for a spatial resection of the initial exterior orientation.
+    """
+
+    name: str
+    source: str
+    cameras: tuple[Camera, ...]
+    image_ids: np.ndarray
+    image_names: tuple[str, ...]
+    image_camera: np.ndarray
+    eo: np.ndarray
+    eo_std: np.ndarray
+    point_ids: np.ndarray
+    point_labels: tuple[str, ...]
+    xyz: np.ndarray
+    xyz_std: np.ndarray
+    point_role: np.ndarray
+    obs_image: np.ndarray
+    obs_point: np.ndarray
+    obs_uv_px: np.ndarray
+    obs_std_px: np.ndarray
+    estimate_io: np.ndarray
+    estimate_eo: np.ndarray
+    datum: str | None = None
+    ref_image: int = 0
+    needs_resection: bool = False
+    meta: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def n_images(self) -> int:
+        return len(self.image_ids)
+
+    @property
+    def n_points(self) -> int:
+        return len(self.point_ids)
+
+    @property
+    def n_observations(self) -> int:
+        return len(self.obs_image)
+
+    def replace(self, **changes) -> Project:
+        """A copy with some fields changed."""
+        return replace(self, **changes)
+
+    def rays(self) -> np.ndarray:
+        """(N,) number of images observing each point."""
+        return np.bincount(self.obs_point, minlength=self.n_points)
+
+    def validate(self, min_rays: int = 2) -> Project:
+        """Check consistency; drop points seen by fewer than ``min_rays`` images.
+
+        Raises
+        ------
+        InputError
+            No observations, an image without observations, an observation that
+            refers to an unknown image, point or camera.
+        """
+        src = self.source
+        if self.n_observations == 0:
+            raise InputError("the project has no image observations", path=src)
+        if self.n_images == 0:
+            raise InputError("the project has no images", path=src)
+        if len(self.cameras) == 0:
+            raise InputError("the project has no camera", path=src)
+        if np.any(self.image_camera < 0) or np.any(self.image_camera >= len(self.cameras)):
+            bad = self.image_ids[(self.image_camera < 0) | (self.image_camera >= len(self.cameras))]
+            raise InputError(
+                f"image(s) {bad[:5].tolist()} refer to an unknown camera",
+                path=src,
+                hint="define every camera the images use",
+            )
+        if not np.all(np.isfinite(self.obs_uv_px)):
+            raise InputError("image observations contain NaN/inf coordinates", path=src)
+        models = {c.model for c in self.cameras}
+        if len(models) > 1:
+            raise InputError(f"mixed lens distortion models {sorted(models)}", path=src)
+        rays = self.rays()
+        weak = (rays < min_rays) & (self.point_role == "tie")
+        proj = self
+        if np.any(weak & (rays > 0)):
+            ids = self.point_ids[weak & (rays > 0)]
+            warnings.warn(
+                f"{src}: {len(ids)} point(s) seen by fewer than {min_rays} images dropped "
+                f"(ids {ids[:10].tolist()}{' ...' if len(ids) > 10 else ''})",
+                BundleWarning,
+                stacklevel=2,
+            )
+        if np.any(weak):
+            proj = proj.drop_points(weak)
+        per_image = np.bincount(proj.obs_image, minlength=proj.n_images)
+        if np.any(per_image == 0):
+            ids = proj.image_ids[per_image == 0]
+            raise InputError(
+                f"image(s) {ids.tolist()} have no observations",
+                path=src,
+                hint="remove these images from the project or measure points on them",
+            )
+        return proj
+
+    def drop_points(self, mask: np.ndarray) -> Project:
+        """A copy without the points where ``mask`` is true (and their observations)."""
+        keep = ~np.asarray(mask, bool)
+        new_index = np.cumsum(keep) - 1
+        keep_obs = keep[self.obs_point]
+        return self.replace(
+            point_ids=self.point_ids[keep],
+            point_labels=tuple(lab for lab, k in zip(self.point_labels, keep, strict=True) if k),
+            xyz=self.xyz[keep],
+            xyz_std=self.xyz_std[keep],
+            point_role=self.point_role[keep],
+            obs_image=self.obs_image[keep_obs],
+            obs_point=new_index[self.obs_point[keep_obs]],
+            obs_uv_px=self.obs_uv_px[keep_obs],
+            obs_std_px=self.obs_std_px[keep_obs],
+        )
+
+    def with_estimated_io(self, names: tuple[str, ...] | list[str]) -> Project:
+        """A copy estimating exactly the interior parameters ``names`` for every camera."""
+        unknown = set(names) - set(IO_NAMES) - {"pp"}
+        if unknown:
+            raise InputError(
+                f"unknown interior parameter(s) {sorted(unknown)}; choose from {list(IO_NAMES)}"
+            )
+        est = np.zeros((len(self.cameras), len(IO_NAMES)), bool)
+        for name in names:
+            for n in ("px", "py") if name == "pp" else (name,):
+                est[:, IO_NAMES.index(n)] = True
+        return self.replace(estimate_io=est)

@@ -1,0 +1,29 @@
+"""Project readers: DBAT XML scripts, PhotoModeler text exports, PhotoScan .psz, COLMAP text."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pyheracles.bundle.project import Project
+from pyheracles.bundle.readers.dbat_script import read_camera_xml, read_dbat_script
+from pyheracles.errors import InputError
+
+__all__ = ["read_camera_xml", "read_dbat_script", "read_project"]
+
+
+def read_project(path: str | Path) -> Project:
+    """Read a project, choosing the reader from the file name and content.
+
+    Supported: DBAT XML script (``*.xml`` with ``dbat_script_version``).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError("project file not found", path=path)
+    suffix = path.suffix.lower()
+    if suffix == ".xml":
+        return read_dbat_script(path)
+    raise InputError(
+        "unknown project format",
+        path=path,
+        hint="give a DBAT XML script (.xml)",
+    )
