@@ -12,6 +12,7 @@ relative one: ``||J p|| <= tol ||r||``.
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,6 +65,8 @@ class BundleParameters:
         Tie points seen by fewer images are dropped with a warning.
     covariance
         Compute the posterior covariance (IO, EO, every object point's 3x3 block).
+    blas_threads
+        BLAS threads during the adjustment (None = library default).
     """
 
     damping: str = "gna"
@@ -76,6 +79,7 @@ class BundleParameters:
     datum: str = "auto"
     min_rays: int = 2
     covariance: bool = True
+    blas_threads: int | None = 1
 
     def __post_init__(self) -> None:
         if self.damping not in DAMPINGS:
@@ -170,6 +174,7 @@ class BundleResult:
     history: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
     rank_deficiency: list = field(default_factory=list)
+    redundancy_numbers: np.ndarray | None = None
 
     @property
     def cameras(self):
@@ -344,11 +349,12 @@ def _residuals(net: Network, st: _State, jacobian: bool = False):
     p = net.project
     out = image_residuals(
         st.io[net.obs_cam],
-        st.eo[p.obs_image],
+        st.eo,
         st.xyz[p.obs_point],
         net.uv_mm,
         net.model,
         jacobian=jacobian,
+        obs_image=p.obs_image,
     )
     res, jac = out if jacobian else (out, None)
     r_img = res * net.sqrt_w
@@ -568,6 +574,27 @@ def bundle_adjust(project: Project, params: BundleParameters | None = None) -> B
     0.5828
     """
     params = params or BundleParameters()
+    with _blas_threads(params.blas_threads):
+        return _bundle_adjust(project, params)
+
+
+@contextmanager
+def _blas_threads(n: int | None):
+    """Limit BLAS threads: OpenBLAS threads busy-wait on a loaded machine and made a
+    358x358 Cholesky 200x slower in our tests; the big work here is sparse anyway."""
+    if n is None:
+        yield
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # optional dependency (comes with scikit-learn)
+        yield
+        return
+    with threadpool_limits(limits=n, user_api="blas"):
+        yield
+
+
+def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     t0 = time.perf_counter()
     net = prepare_network(project, params)
     p = net.project
@@ -683,6 +710,7 @@ def bundle_adjust(project: Project, params: BundleParameters | None = None) -> B
     if params.covariance:
         t2 = time.perf_counter()
         _posterior(result, ne, fac, d)
+        result.redundancy_numbers = _redundancy_numbers(result, ne, jac)
         timings["covariance"] = time.perf_counter() - t2
     timings["total"] = time.perf_counter() - t0
     return result
@@ -729,3 +757,43 @@ def _posterior(res: BundleResult, ne: _Normal, fac, d, chunk: int = 20000) -> No
     res.io_std = io_std
     res.eo_std = eo_std
     res.xyz_std = np.sqrt(np.clip(np.einsum("nii->ni", res.cov_xyz), 0, None))
+
+
+def _redundancy_numbers(res: BundleResult, ne: _Normal, jac, chunk: int = 20000) -> np.ndarray:
+    """Redundancy number of every image coordinate: 1 - diag(J Q J^T) (weighted).
+
+    ``Q = N^-1`` is assembled per observation from the point block, the camera
+    block and their cross covariance ``-A^-1 B S^-1``; the sum over all
+    observations (and priors) equals the redundancy.
+    """
+    net = res.network
+    p = net.project
+    d_xyz, d_eo, d_io = jac
+    w = net.sqrt_w[:, :, None]
+    s02 = res.sigma0**2
+    q_cam = res.cov_cam / s02 if res.cov_cam is not None and s02 > 0 else res.cov_cam
+    cols = np.concatenate([net.io_col[net.obs_cam], net.eo_col[p.obs_image]], axis=1)
+    valid = cols >= 0
+    jc = np.concatenate([d_io, d_eo], axis=2) * w * valid[:, None, :]
+    jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
+    colz = np.where(valid, cols, 0)
+    m = jp.shape[0]
+    out = np.empty((m, 2))
+    for start in range(0, m, chunk):
+        sl = slice(start, min(m, start + chunk))
+        pts = p.obs_point[sl]
+        q_pp = res.cov_xyz[pts] / s02  # (k,3,3)
+        c = colz[sl]
+        q_cc = q_cam[c[:, :, None], c[:, None, :]]  # (k,16,16)
+        rows = 3 * pts[:, None] + np.arange(3)[None, :]  # (k,3)
+        t_rows = ne.t[rows.ravel()]  # (3k, nc) sparse
+        q_pc = -np.asarray(t_rows @ q_cam).reshape(-1, 3, q_cam.shape[0])  # (k,3,nc)
+        q_pc = np.take_along_axis(q_pc, c[:, None, :], axis=2)  # (k,3,16)
+        a, b = jp[sl], jc[sl]
+        h = (
+            np.einsum("kri,kij,krj->kr", a, q_pp, a)
+            + np.einsum("kri,kij,krj->kr", b, q_cc, b)
+            + 2 * np.einsum("kri,kij,krj->kr", a, q_pc, b)
+        )
+        out[sl] = 1.0 - h
+    return out

@@ -268,6 +268,7 @@ def image_residuals(
     uv_mm: np.ndarray,
     model: int,
     jacobian: bool = False,
+    obs_image: np.ndarray | None = None,
 ):
     """Image residuals ``projected - corrected`` (mm) of each observation.
 
@@ -287,12 +288,17 @@ def image_residuals(
     jacobian
         Also return the derivatives with respect to the object point (m,2,3),
         the exterior orientation (m,2,6) and the interior orientation (m,2,10).
+    obs_image
+        When given, ``eo`` holds one row per image and ``obs_image`` (m,) says
+        which image each observation belongs to (rotations computed once per image).
 
     Returns
     -------
     residual : (m,2); and ``(d_xyz, d_eo, d_io)`` when ``jacobian``.
     """
     rot, drot = rotation_matrix(eo[:, 3:6], derivatives=True)
+    if obs_image is not None:
+        rot, drot, eo = rot[obs_image], drot[obs_image], eo[obs_image]
     diff = xyz - eo[:, :3]
     xc = np.einsum("mji,mj->mi", rot, diff)  # R^T (X - X0)
     z = xc[:, 2]
