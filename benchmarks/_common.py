@@ -1,0 +1,49 @@
+"""Helpers shared by the benchmark scripts: JSON output and timing."""
+
+from __future__ import annotations
+
+import json
+import resource
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def emit(**record: Any) -> dict[str, Any]:
+    """Print one JSON line (dataset, metric, value, time_s, points_per_s, ...)."""
+
+    def plain(v: Any) -> Any:
+        if hasattr(v, "item"):
+            return v.item()
+        return v
+
+    record = {k: plain(v) for k, v in record.items()}
+    print(json.dumps(record), flush=True)
+    return record
+
+
+class Timer:
+    """Elapsed wall-clock seconds of a ``with`` block (``.s``)."""
+
+    s: float = 0.0
+
+
+@contextmanager
+def timer() -> Iterator[Timer]:
+    t = Timer()
+    start = time.perf_counter()
+    try:
+        yield t
+    finally:
+        t.s = time.perf_counter() - start
+
+
+def peak_rss_gb() -> float:
+    """Peak resident memory of this process so far, GB."""
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / 1e6 if sys.platform != "darwin" else kb / 1e9

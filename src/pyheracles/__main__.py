@@ -1,0 +1,7 @@
+"""``python -m pyheracles`` runs the ``heracles`` command."""
+
+import sys
+
+from pyheracles.cli import main
+
+sys.exit(main())

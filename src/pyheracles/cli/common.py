@@ -1,0 +1,61 @@
+"""Pieces shared by the subcommands: output folders and summary tables."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from pyheracles.errors import InputError
+
+console = Console()
+
+__all__ = ["console", "output_dir", "print_counts", "print_objects"]
+
+
+def output_dir(path: Path, *, force: bool = False) -> Path:
+    """Create the output folder; refuse a non-empty one unless ``force``."""
+    if path.exists() and not path.is_dir():
+        raise InputError("output path exists and is not a folder", path=path)
+    if path.is_dir() and any(path.iterdir()) and not force:
+        raise InputError(
+            "output folder is not empty", path=path, hint="choose a new folder or pass --force"
+        )
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def print_objects(objects: Any, columns: Sequence[str], *, limit: int = 40) -> None:
+    """Print the first rows of an objects table."""
+    cols = [c for c in columns if c in objects.columns]
+    table = Table(title=f"{len(objects)} objects", show_lines=False)
+    for c in cols:
+        table.add_column(c, justify="right" if objects[c].dtype.kind in "iuf" else "left")
+    for _, row in objects.head(limit).iterrows():
+        table.add_row(
+            *[f"{row[c]:.2f}" if isinstance(row[c], float) else str(row[c]) for c in cols]
+        )
+    console.print(table)
+    if len(objects) > limit:
+        console.print(f"... {len(objects) - limit} more rows in the objects table")
+
+
+def print_counts(
+    counts: Mapping[str, int], timings: Mapping[str, float], paths: Mapping[str, Path]
+) -> None:
+    """Print the conservation balance, timings and written files."""
+    table = Table(title="points", show_header=False)
+    for key in ("objects", "ground", "remainder", "total"):
+        if key in counts:
+            table.add_row(key, f"{counts[key]:,}")
+    console.print(table)
+    console.print(
+        "time: "
+        + ", ".join(f"{k} {v:.1f} s" for k, v in timings.items())
+        + f" (total {sum(timings.values()):.1f} s)"
+    )
+    for key, path in paths.items():
+        console.print(f"[green]wrote[/] {key}: {path}")

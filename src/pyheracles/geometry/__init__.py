@@ -1,0 +1,1 @@
+"""Geometry shared by every step: neighbourhoods, fitting, sections."""

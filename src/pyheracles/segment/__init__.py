@@ -1,0 +1,1 @@
+"""Segmentation building blocks: Euclidean clustering and region growing."""
