@@ -197,3 +197,70 @@ class Project:
             for n in ("px", "py") if name == "pp" else (name,):
                 est[:, IO_NAMES.index(n)] = True
         return self.replace(estimate_io=est)
+
+    def with_control(self, control: dict) -> Project:
+        """A copy using the control/check points of ``control`` (matched by id).
+
+        ``control`` is the dict of :func:`~pyheracles.bundle.readers.read_control_points`.
+        Points of the project that were control points and are not in the table
+        become tie points; table points the project does not observe are ignored
+        (with a warning).
+        """
+        ids = np.asarray(control["id"])
+        idx = np.searchsorted(self.point_ids, ids)
+        idx = np.clip(idx, 0, max(self.n_points - 1, 0))
+        found = (self.n_points > 0) & (self.point_ids[idx] == ids)
+        if not np.any(found):
+            raise InputError(
+                "none of the control point ids occurs in the project",
+                path=control.get("source"),
+                hint="check that the ids in the control file match the project's point ids",
+            )
+        if not np.all(found):
+            warnings.warn(
+                f"{control.get('source')}: control point id(s) {ids[~found][:10].tolist()} "
+                "not observed in the project: ignored",
+                BundleWarning,
+                stacklevel=2,
+            )
+        role = np.where(self.point_role == "control", "tie", self.point_role).astype(object)
+        xyz = self.xyz.copy()
+        std = self.xyz_std.copy()
+        std[self.point_role == "control"] = np.nan
+        labels = list(self.point_labels)
+        for k in np.flatnonzero(found):
+            i = idx[k]
+            role[i] = control["role"][k]
+            xyz[i] = control["xyz"][k]
+            std[i] = control["std"][k] if control["role"][k] == "control" else np.nan
+            labels[i] = control["label"][k]
+        return self.replace(
+            point_role=role.astype(str),
+            xyz=xyz,
+            xyz_std=std,
+            point_labels=tuple(labels),
+            datum="control",
+        )
+
+    def with_default_io(self, cc_mm: float | None = None) -> Project:
+        """A copy with DBAT's default interior orientation as initial values.
+
+        Camera constant ``cc_mm`` (default: each camera's nominal focal length),
+        principal point at the sensor centre, no distortion, no affinity.
+        """
+        cams = []
+        for c in self.cameras:
+            io = np.zeros(len(IO_NAMES))
+            io[0] = cc_mm if cc_mm is not None else c.extra.get("focal_mm", c.cc_mm)
+            fmt = c.extra.get("format_mm", c.sensor_size_mm)
+            io[1:3] = np.asarray(fmt, float) / 2
+            cams.append(c.with_io(io))
+        return self.replace(cameras=tuple(cams))
+
+    def with_model(self, model: int) -> Project:
+        """A copy whose cameras use lens distortion model ``model``."""
+        from dataclasses import replace as _replace
+
+        if model not in (1, 2, 3, 4, 5):
+            raise InputError(f"unknown lens distortion model {model}; choose 1-5")
+        return self.replace(cameras=tuple(_replace(c, model=model) for c in self.cameras))

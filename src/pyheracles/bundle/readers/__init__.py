@@ -6,15 +6,23 @@ from pathlib import Path
 
 from pyheracles.bundle.project import Project
 from pyheracles.bundle.readers.dbat_script import read_camera_xml, read_dbat_script
+from pyheracles.bundle.readers.photomodeler import read_control_points, read_photomodeler
 from pyheracles.errors import InputError
 
-__all__ = ["read_camera_xml", "read_dbat_script", "read_project"]
+__all__ = [
+    "read_camera_xml",
+    "read_control_points",
+    "read_dbat_script",
+    "read_photomodeler",
+    "read_project",
+]
 
 
 def read_project(path: str | Path) -> Project:
     """Read a project, choosing the reader from the file name and content.
 
-    Supported: DBAT XML script (``*.xml`` with ``dbat_script_version``).
+    Supported: DBAT XML script (``*.xml`` with ``dbat_script_version``),
+    PhotoModeler text export (``*.txt`` starting with a "Bundle Soln" title line).
     """
     path = Path(path)
     if not path.exists():
@@ -22,8 +30,10 @@ def read_project(path: str | Path) -> Project:
     suffix = path.suffix.lower()
     if suffix == ".xml":
         return read_dbat_script(path)
+    if suffix == ".txt":
+        return read_photomodeler(path)
     raise InputError(
         "unknown project format",
         path=path,
-        hint="give a DBAT XML script (.xml)",
+        hint="give a DBAT XML script (.xml) or a PhotoModeler text export (.txt)",
     )
