@@ -6,10 +6,15 @@ returns a :class:`GroundResult` whose ``mask`` is aligned with the input points.
 Methods
 -------
 ``"auto"``
-    The Cloth Simulation Filter with parameters measured on the cloud (point spacing,
-    terrain slope, largest building size): see :func:`auto_csf_params`.
+    Parameters measured on the cloud (point spacing, largest building size), SMRF seeds,
+    then a surface refinement whose threshold comes from the measured roughness of the
+    ground (:func:`auto_params`, :func:`refine_ground`). The most accurate setting on the
+    ISPRS samples and on AHN3 (see ``benchmarks/bench_ground.py``).
 ``"csf"``
-    The Cloth Simulation Filter (Zhang et al. 2016) with :class:`CSFParams`.
+    The Cloth Simulation Filter (Zhang et al. 2016) with :class:`CSFParams`; the
+    package defaults, or parameters measured on the cloud with
+    ``auto_csf_params(measure_scene(xyz))`` (cloth resolution from the spacing,
+    rigidness from the terrain slope).
 ``"smrf"``
     The Simple Morphological Filter (Pingel et al. 2013) with :class:`SMRFParams`.
 ``"none"``
@@ -30,8 +35,7 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -41,13 +45,15 @@ from scipy import ndimage
 from pyheracles.errors import InputError
 from pyheracles.groundfilters.auto import (
     DEFAULT_MAX_OBJECT_SIZE_M,
+    AutoParams,
     SceneMeasures,
     auto_csf_params,
-    auto_smrf_params,
+    auto_params,
     measure_scene,
     point_spacing_m,
 )
 from pyheracles.groundfilters.csf import CSFParams, csf
+from pyheracles.groundfilters.refine import RefineParams, refine_ground
 from pyheracles.groundfilters.smrf import SMRFParams, smrf
 from pyheracles.groundfilters.surface import DTM, Grid, dtm_from_ground, height_above_ground
 
@@ -55,16 +61,19 @@ __all__ = [
     "DEFAULT_MAX_OBJECT_SIZE_M",
     "DTM",
     "GROUND_METHODS",
+    "AutoParams",
     "CSFParams",
     "GroundResult",
+    "RefineParams",
     "SMRFParams",
     "SceneMeasures",
     "auto_csf_params",
-    "auto_smrf_params",
+    "auto_params",
     "dtm_from_ground",
     "extract_ground",
     "height_above_ground",
     "measure_scene",
+    "refine_ground",
 ]
 
 GROUND_METHODS = ("auto", "csf", "smrf", "none")
@@ -83,9 +92,10 @@ class GroundResult:
     mask
         (N,) bool aligned with the input points; True = ground.
     method
-        The filter that ran: ``"csf"``, ``"smrf"`` or ``"none"`` (``"auto"`` runs ``"csf"``).
+        The method that ran: ``"auto"``, ``"csf"``, ``"smrf"`` or ``"none"``.
     params
-        The parameters it ran with (:class:`CSFParams`, :class:`SMRFParams` or None).
+        The parameters it ran with (:class:`AutoParams`, :class:`CSFParams`,
+        :class:`SMRFParams` or None).
     dtm
         Terrain model from the ground points (:class:`DTM`), None when there is no ground.
     scene
@@ -96,7 +106,7 @@ class GroundResult:
 
     mask: NDArray[np.bool_]
     method: str
-    params: CSFParams | SMRFParams | None
+    params: AutoParams | CSFParams | SMRFParams | None
     dtm: DTM | None
     scene: SceneMeasures | None = None
     note: str = ""
@@ -131,29 +141,13 @@ def _resolve_params(method: str, params: Any, scene: SceneMeasures | None) -> An
         if params is not None:
             raise InputError("method='none' takes no parameters")
         return None
-    if method == "auto":
-        auto = auto_csf_params(scene)  # type: ignore[arg-type]  # measured for 'auto'
-        if params is None:
-            return auto
-        if not isinstance(params, Mapping):
-            raise InputError(
-                "with method='auto', params must be None or a mapping of CSFParams fields to "
-                f"override, got {type(params).__name__}",
-                hint="pass method='csf' with a CSFParams to set every parameter yourself",
-            )
-        known = {f.name for f in fields(CSFParams)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise InputError(
-                f"unknown CSF parameter(s) {unknown}; known: {sorted(known)}",
-            )
-        return replace(auto, **dict(params))
-    expected = CSFParams if method == "csf" else SMRFParams
+    expected = {"auto": AutoParams, "csf": CSFParams, "smrf": SMRFParams}[method]
     if params is None:
-        return expected()
+        return auto_params(scene) if scene is not None else expected()
     if not isinstance(params, expected):
         raise InputError(
-            f"method={method!r} needs {expected.__name__} parameters, got {type(params).__name__}"
+            f"method={method!r} needs {expected.__name__} parameters, got {type(params).__name__}",
+            hint="pass None for the defaults (measured ones with 'auto')",
         )
     return params
 
@@ -196,7 +190,7 @@ def _surface_note(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: flo
 def extract_ground(
     xyz: ArrayLike,
     method: str = "auto",
-    params: CSFParams | SMRFParams | Mapping[str, Any] | None = None,
+    params: AutoParams | CSFParams | SMRFParams | None = None,
     *,
     max_object_size_m: float | None = None,
     dtm_cell_m: float | None = None,
@@ -212,17 +206,18 @@ def extract_ground(
         One of ``"auto"``, ``"csf"``, ``"smrf"``, ``"none"`` (see the module docstring).
         Keeping an existing ASPRS classification (``"class"``) is the caller's business.
     params
-        :class:`CSFParams` for ``"csf"``, :class:`SMRFParams` for ``"smrf"``; for ``"auto"``
-        a mapping of :class:`CSFParams` fields overriding the measured values; None = the
-        defaults (``"csf"``, ``"smrf"``) or the measured values (``"auto"``).
+        :class:`AutoParams` for ``"auto"``, :class:`CSFParams` for ``"csf"``,
+        :class:`SMRFParams` for ``"smrf"``; None = measured on the cloud (``"auto"``) or
+        the published defaults. To override some measured values:
+        ``dataclasses.replace(auto_params(measure_scene(xyz)), ...)``.
     max_object_size_m
         Size of the largest building, metres (e.g. the largest footprint diameter of the
         GIS layer given to step 1); used by ``"auto"``. None = 36 m.
     dtm_cell_m
-        Cell size of the returned DTM, metres; None = the filter's cell (cloth resolution
-        or SMRF cell).
+        Cell size of the returned DTM, metres; None = the filter's cell (SMRF cell or
+        cloth resolution).
     rng
-        Unused: both filters are deterministic. Accepted for a uniform API.
+        Unused: every filter here is deterministic. Accepted for a uniform API.
 
     Returns
     -------
@@ -244,25 +239,37 @@ def extract_ground(
         np.isfinite(max_object_size_m) and max_object_size_m > 0
     ):
         raise InputError(f"max_object_size_m must be > 0 metres, got {max_object_size_m!r}")
+    if dtm_cell_m is not None and not (np.isfinite(dtm_cell_m) and dtm_cell_m > 0):
+        raise InputError(f"dtm_cell_m must be > 0 metres, got {dtm_cell_m!r}")
     pts = _check_xyz(xyz)
     n = pts.shape[0]
-    scene = measure_scene(pts, max_object_size_m=max_object_size_m) if method == "auto" else None
-    used = _resolve_params(method, params, scene)
     if method == "none":
+        _resolve_params(method, params, None)
         return GroundResult(np.zeros(n, dtype=bool), "none", None, None, None, "")
-    if isinstance(used, CSFParams):
+    scene = None
+    if method == "auto":
+        scene = measure_scene(pts, max_object_size_m=max_object_size_m, slope=False)
+    used = _resolve_params(method, params, scene)
+    if isinstance(used, AutoParams):
+        seeds, _ = smrf(pts, used.seed)
+        mask = refine_ground(pts, seeds, used.refine)[0] if seeds.any() else seeds
+        cell = used.refine.cell_m
+    elif isinstance(used, CSFParams):
         mask = csf(pts, used)
         cell = used.cloth_resolution_m
-        ran = "csf"
     else:
         mask, _ = smrf(pts, used)
         cell = used.cell_m
-        ran = "smrf"
     if dtm_cell_m is not None:
         cell = float(dtm_cell_m)
     note = "" if mask.any() else "the filter found no ground point"
     if not note:
-        note = _surface_note(pts, mask, max(cell, point_spacing_m(pts[:, :2])))
+        spacing = scene.spacing_m if scene is not None else point_spacing_m(pts[:, :2])
+        note = _surface_note(pts, mask, max(cell, spacing))
     if note:
-        return GroundResult(np.zeros(n, dtype=bool), ran, used, None, scene, note)
-    return GroundResult(mask, ran, used, dtm_from_ground(pts, mask, cell), scene, "")
+        return GroundResult(np.zeros(n, dtype=bool), method, used, None, scene, note)
+    dtm = dtm_from_ground(pts, mask, cell)
+    if scene is not None:
+        slope = dtm.slope()[dtm.observed]
+        scene = replace(scene, slope=float(np.percentile(slope, 90)))
+    return GroundResult(mask, method, used, dtm, scene, "")

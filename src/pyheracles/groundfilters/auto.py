@@ -13,14 +13,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.groundfilters.csf import CSFParams
+from pyheracles.groundfilters.refine import RefineParams
 from pyheracles.groundfilters.smrf import SMRFParams, _opening
 from pyheracles.groundfilters.surface import Grid, inpaint, rasterise
 
 __all__ = [
     "DEFAULT_MAX_OBJECT_SIZE_M",
+    "AutoParams",
     "SceneMeasures",
     "auto_csf_params",
-    "auto_smrf_params",
+    "auto_params",
     "measure_scene",
     "point_spacing_m",
     "terrain_slope",
@@ -58,14 +60,15 @@ def point_spacing_m(xy: NDArray[np.float64]) -> float:
     a first guess from the bounding box, then the occupied area at that scale.
     """
     n = xy.shape[0]
-    extent = np.ptp(xy, axis=0)
+    extent = np.array([np.ptp(xy[:, 0]), np.ptp(xy[:, 1])])
     area = max(float(extent[0] * extent[1]), float(max(extent.max(), 1e-3) ** 2) / n)
     spacing = np.sqrt(area / n)
     for _ in range(2):
         cell = max(4.0 * spacing, 1e-3)
         grid = Grid.covering(xy, cell)
         row, col = grid.index(xy)
-        occupied = np.unique(row * grid.shape[1] + col).size
+        flat = row * grid.shape[1] + col
+        occupied = np.count_nonzero(np.bincount(flat, minlength=grid.shape[0] * grid.shape[1]))
         spacing = np.sqrt(occupied * cell * cell / n)
     return float(spacing)
 
@@ -90,16 +93,16 @@ def terrain_slope(xyz: NDArray[np.float64], *, spacing_m: float, max_object_size
 
 
 def measure_scene(
-    xyz: NDArray[np.float64], *, max_object_size_m: float | None = None
+    xyz: NDArray[np.float64], *, max_object_size_m: float | None = None, slope: bool = True
 ) -> SceneMeasures:
-    """Measure point spacing and terrain slope.
+    """Measure point spacing and (if ``slope``) terrain slope; NaN slope otherwise.
 
     See :func:`point_spacing_m` and :func:`terrain_slope`.
     """
     size = DEFAULT_MAX_OBJECT_SIZE_M if max_object_size_m is None else float(max_object_size_m)
     spacing = point_spacing_m(xyz[:, :2])
-    slope = terrain_slope(xyz, spacing_m=spacing, max_object_size_m=size)
-    return SceneMeasures(spacing, slope, size)
+    value = terrain_slope(xyz, spacing_m=spacing, max_object_size_m=size) if slope else float("nan")
+    return SceneMeasures(spacing, value, size)
 
 
 def auto_csf_params(scene: SceneMeasures) -> CSFParams:
@@ -110,7 +113,7 @@ def auto_csf_params(scene: SceneMeasures) -> CSFParams:
     - rigidness from the terrain slope (CSF's scene types: steep 1, relief 2, flat 3);
     - class threshold: 0.5 m plus the height change of the terrain over half a cloth cell.
     """
-    resolution = float(np.clip(scene.spacing_m, 0.5, 2.0))
+    resolution = round(float(np.clip(scene.spacing_m, 0.5, 2.0)), 2)
     if scene.slope > 0.35:
         rigidness = 1
     elif scene.slope > 0.15:
@@ -126,17 +129,34 @@ def auto_csf_params(scene: SceneMeasures) -> CSFParams:
     )
 
 
-def auto_smrf_params(scene: SceneMeasures) -> SMRFParams:
-    """SMRF parameters for a measured scene.
+@dataclass(frozen=True)
+class AutoParams:
+    """Parameters of the automatic ground filter: SMRF seeds, then surface refinement.
 
-    - cell: the point spacing, between 0.5 m and 2 m (Pingel et al. 2013 use 1 m on the
-      ISPRS samples, spacing 1-1.5 m);
-    - window radius: half the largest object size (a building must fit in the disk);
-    - slope: the measured terrain slope, at least PDAL's 0.15.
+    Attributes
+    ----------
+    seed
+        :class:`SMRFParams` of the first pass.
+    refine
+        :class:`RefineParams` of the refinement.
     """
-    cell = float(np.clip(scene.spacing_m, 0.5, 2.0))
-    return SMRFParams(
-        cell_m=cell,
-        slope=max(0.15, round(scene.slope, 3)),
-        window_m=max(2.0 * cell, 0.5 * scene.max_object_size_m),
-    )
+
+    seed: SMRFParams
+    refine: RefineParams
+
+
+def auto_params(scene: SceneMeasures) -> AutoParams:
+    """Automatic ground filter parameters for a measured scene.
+
+    - cell (SMRF and refinement): the point spacing, at least 1 m (Pingel et al. 2013 use
+      1 m on the ISPRS samples, spacing 1-1.5 m; a finer terrain raster than 1 m follows
+      kerbs and low vegetation instead of the terrain and costs four times more);
+    - SMRF window radius: half the largest object size (a building must fit in the disk);
+    - SMRF slope, threshold and scalar: PDAL's defaults, which Pingel et al. (2013) found to
+      work across the ISPRS samples (using the measured terrain slope as SMRF slope lets
+      buildings on steep sites through: 25 % total error on sample 11 instead of 9 %);
+    - the refinement threshold comes from the measured roughness of the seeds.
+    """
+    cell = round(max(1.0, scene.spacing_m), 2)
+    seed = SMRFParams(cell_m=cell, window_m=max(2.0 * cell, 0.5 * scene.max_object_size_m))
+    return AutoParams(seed=seed, refine=RefineParams(cell_m=cell))

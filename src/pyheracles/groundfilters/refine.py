@@ -1,0 +1,116 @@
+"""Surface refinement: re-test every point against a terrain model grown from ground seeds.
+
+A first filter (SMRF or CSF) gives ground seeds with a generous fixed threshold (0.5 m),
+which on modern dense LiDAR lets low vegetation, kerbs of objects and wall feet through.
+The refinement measures how rough the seeds really are around their own surface (robust
+standard deviation of the residuals, MAD) and keeps as ground the points within
+``noise_factor`` sigmas of it, plus the height change of the terrain over one cell
+(the slope term of Pingel et al. 2013, in metres here). Iterated, the surface is
+rebuilt from the refined ground each time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from pyheracles.errors import InputError
+from pyheracles.groundfilters.surface import DTM, Grid, inpaint, rasterise
+
+__all__ = ["RefineParams", "refine_ground"]
+
+
+@dataclass(frozen=True)
+class RefineParams:
+    """Parameters of the surface refinement.
+
+    Attributes
+    ----------
+    cell_m
+        Cell of the terrain model the points are tested against, metres (1.0, the SMRF
+        cell of Pingel et al. 2013).
+    noise_factor
+        Threshold in robust standard deviations of the seed residuals (3.0).
+    min_threshold_m, max_threshold_m
+        Bounds of the noise threshold, metres (0.05, 0.5; 0.5 m is the fixed threshold of
+        CSF and SMRF, the refinement never accepts more than they do on flat ground).
+    slope_scalar
+        Weight of the slope term: the threshold grows by ``slope_scalar * slope * cell_m``
+        (0.75, chosen on the ISPRS samples and AHN3 Delft, see benchmarks/bench_ground.py).
+    iterations
+        Number of rebuild-and-retest passes (2).
+    """
+
+    cell_m: float = 1.0
+    noise_factor: float = 3.0
+    min_threshold_m: float = 0.05
+    max_threshold_m: float = 0.5
+    slope_scalar: float = 0.75
+    iterations: int = 2
+
+    def __post_init__(self) -> None:
+        for name in ("cell_m", "noise_factor", "min_threshold_m", "max_threshold_m"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"RefineParams.{name} must be > 0, got {value!r}")
+        if self.min_threshold_m > self.max_threshold_m:
+            raise InputError("RefineParams.min_threshold_m must not exceed max_threshold_m")
+        if not (np.isfinite(self.slope_scalar) and self.slope_scalar >= 0):
+            raise InputError(f"RefineParams.slope_scalar must be >= 0, got {self.slope_scalar!r}")
+        if int(self.iterations) < 1:
+            raise InputError(f"RefineParams.iterations must be >= 1, got {self.iterations!r}")
+
+
+def _robust_sigma(values: NDArray[np.float64]) -> float:
+    med = np.median(values)
+    return float(1.4826 * np.median(np.abs(values - med)))
+
+
+def refine_ground(
+    xyz: NDArray[np.float64],
+    seeds: NDArray[np.bool_],
+    params: RefineParams | None = None,
+) -> tuple[NDArray[np.bool_], DTM, float]:
+    """Re-classify every point against a terrain model built from ground seeds.
+
+    Parameters
+    ----------
+    xyz
+        (N, 3) float64 points, local frame, metres.
+    seeds
+        (N,) bool ground of a first filter.
+    params
+        :class:`RefineParams`; None = defaults.
+
+    Returns
+    -------
+    mask
+        (N,) bool refined ground.
+    dtm
+        The last terrain model (mean height of the ground seeds per cell, inpainted).
+    sigma_m
+        Robust standard deviation of the ground residuals of the last pass, metres.
+    """
+    p = RefineParams() if params is None else params
+    xy = xyz[:, :2]
+    grid = Grid.covering(xy, p.cell_m)
+    frac = grid.fractional_index(xy)
+    mask = np.asarray(seeds, dtype=bool)
+    dtm: DTM | None = None
+    sigma = float("nan")
+    for _ in range(int(p.iterations)):
+        if not mask.any():
+            break
+        z = rasterise(grid, xy[mask], xyz[mask, 2], "mean")
+        dtm = DTM(inpaint(z), grid, np.isfinite(z))
+        residual = xyz[:, 2] - ndimage.map_coordinates(dtm.z_m, frac, order=1, mode="nearest")
+        sigma = _robust_sigma(residual[mask])
+        base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
+        slope = ndimage.map_coordinates(dtm.slope(), frac, order=1, mode="nearest")
+        mask = np.abs(residual) <= base + p.slope_scalar * slope * p.cell_m
+    if dtm is None:
+        raise InputError("no ground seed to refine", hint="check the first filter's result")
+    return mask, dtm, sigma
