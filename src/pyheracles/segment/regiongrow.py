@@ -29,8 +29,8 @@ only); a non-core point claimed by two regions goes to the better-aligned one,
 and a core point that passes another region's angle test but fails its
 residual test stays in its own component (PCL gives such boundary points to
 whichever region reaches them first).  ``tests/test_regiongrow.py`` checks
-that the two agree on more than 99 % of the core points.  Everything is array work on ``N * k`` edges: no
-Python loop over points.
+that the two agree on more than 99 % of the core points.  Everything is array
+work on ``N * k`` edges: no Python loop over points.
 
 The voxel variant runs the same graph algorithm on voxels (normal, curvature
 and centroid from the points of each voxel, 26-connectivity), then gives each

@@ -166,22 +166,24 @@ def truss_beams(params: TrussParams) -> list[Beam]:
     xs = np.arange(params.n_trusses) * params.truss_spacing_m
     for i, xt in enumerate(xs):
         c = np.array([xt, 0.0, 0.0])
-        beams.append(Beam(f"tie{i}", c + [0, 0, h0], y, z, params.span_m + 0.5, tie_w, tie_h))
+        beams.append(
+            Beam(f"tie{i}", c + np.array([0, 0, h0]), y, z, params.span_m + 0.5, tie_w, tie_h)
+        )
         for s, sgn in (("l", -1.0), ("r", 1.0)):
-            foot = c + [0, sgn * (half - 0.05), foot_z]
+            foot = c + np.array([0, sgn * (half - 0.05), foot_z])
             # extend past the apex so the two rafters interpenetrate (halved joint)
             d = np.array([0, -sgn, tan]) / np.hypot(1.0, tan)
-            top = c + [0, 0, apex_z] + 0.07 * d
+            top = c + np.array([0, 0, apex_z]) + 0.07 * d
             beams.append(_beam_between(f"rafter{i}{s}", foot, top, raf_w, raf_h, z))
-        kp_bottom = c + [0, 0, h0 + tie_h / 2]
-        kp_top = c + [0, 0, apex_z - 0.10]
+        kp_bottom = c + np.array([0, 0, h0 + tie_h / 2])
+        kp_top = c + np.array([0, 0, apex_z - 0.10])
         beams.append(_beam_between(f"king_post{i}", kp_bottom, kp_top, kp_w, kp_w, x))
         for s, sgn in (("l", -1.0), ("r", 1.0)):
-            low = c + [0, sgn * (kp_w / 2 - 0.02), h0 + tie_h / 2 + 0.55]
+            low = c + np.array([0, sgn * (kp_w / 2 - 0.02), h0 + tie_h / 2 + 0.55])
             # meet the rafter's lower face at 55 % of its run
             yy = sgn * half * 0.45
             z_raf = foot_z + (half - abs(yy)) * tan - raf_h / (2 * cos)
-            high = c + [0, yy, z_raf + 0.03]
+            high = c + np.array([0, yy, z_raf + 0.03])
             beams.append(_beam_between(f"strut{i}{s}", low, high, strut_w, strut_h, x))
     x0, x1 = xs[0] - 0.45, xs[-1] + 0.45
     ridge_z = apex_z - 0.10
