@@ -1,0 +1,790 @@
+"""Structural supports of a building body: columns, piers and engaged columns.
+
+The MATLAB ``supportdetect`` of M_HERACLES (Murtiyoso 2020, ch. 6.2) cut the
+body at mid-height, clustered the cross-section into islands, told columns
+from piers by the circularity of the island hull, and used the buffered hull
+as a 2.5D "cookie-cutter" back in 3D, after removing floor and ceiling planes.
+This module keeps that structure and fixes the failures the thesis reports:
+
+1. **Section height** -- chosen automatically: sections are taken every
+   ``candidate_step_m`` between 25 % and 85 % of the body height; a support
+   island counts at a height only if an island of the same kind is found at the
+   same place ``persistence_m`` above and below (a chair seat or a sign board is
+   not); the middle of the longest run of heights with the most islands is
+   used.  Capitals merge twin columns and fences join columns into wall-like
+   islands, so such heights lose islands and are avoided (the thesis moved the
+   section by hand in the St-Pierre choir).
+2. **Islands** -- Euclidean clustering of the section (2D); each island is
+   noise (too small), wall (long or elongated) or a support; a support is a
+   column when a circle explains its points better than a rectangle and the
+   hull circularity ``P^2 / 4 pi A`` is at most 1.12 (thesis threshold; a
+   partially scanned column passes on the model test alone), else a pier.
+3. **Engaged columns** -- on wall islands, the wall faces are fitted as lines
+   (MSAC); the points left over that form an arc of circle attached to a face
+   are half-columns (class ``engaged_column``, which the thesis could not find).
+4. **Cookie-cutter** -- around each support, points within a buffer of its
+   section shape are collected (overlaps go to the nearest support: twin
+   columns conjoined at plinth and capital become two objects).  Floors and
+   ceilings are removed by height: the floor under the support and the lowest
+   *covering* surface of the ring around it (flat ceilings, vaults and other
+   non-planar ceilings alike), instead of RANSAC planes only.
+5. **Clutter** -- in every height layer and angular sector around the support,
+   only points within ``surface_tolerance_m`` of the innermost surface are kept
+   (a fence rail or a chair leaning on a column is outside the column surface
+   in its sector).  Then a final voxel clustering keeps what is connected to
+   the section island; everything rejected goes back to the pool.
+6. **Primitives** -- cylinder (axis, radius, height, RMS) for columns and
+   engaged columns, oriented box (dimensions, RMS) for piers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.geometry.fitting import (
+    MSACParams,
+    fit_circle,
+    fit_cylinder,
+    fit_oriented_box,
+    min_area_rectangle,
+)
+from pyheracles.geometry.sections import circularity
+from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
+
+__all__ = ["Island", "SupportParams", "SupportResult", "detect_supports", "section_islands"]
+
+Array = NDArray[np.float64]
+
+SUPPORT_CLASSES = ("column", "pier", "engaged_column")
+
+
+@dataclass(frozen=True)
+class SupportParams:
+    """Parameters of the support detection.  ``None`` means automatic.
+
+    Attributes
+    ----------
+    section_height_m
+        Height of the cross-section above the lowest point of the body, metres;
+        ``None`` chooses it automatically (the thesis took the middle).
+    section_thickness_m
+        Slab thickness, metres; auto ``max(0.05, 3 x point spacing)`` (thesis: 5 cm).
+    cluster_distance_m
+        Largest gap inside an island, metres; auto ``clip(2.5 x spacing, 0.03, 0.15)``.
+    candidate_step_m
+        Step between candidate section heights, metres.
+    persistence_m
+        An island counts only if found again this far above and below, metres.
+    min_support_size_m
+        Islands whose longest side is shorter are noise (fence bars, chair legs), metres.
+    max_support_size_m
+        Islands whose longest side is longer are walls, metres.
+    wall_min_aspect
+        Islands longer than 1 m with length / width above this are walls.
+    circularity_max
+        Largest hull circularity ``P^2 / (4 pi A)`` of a column (thesis: 1.12).
+    buffer_fraction, buffer_min_m
+        Cookie-cutter buffer: ``max(buffer_min_m, buffer_fraction x radius)``, metres;
+        it must reach plinth and capital corners.
+    floor_tolerance_m, ceiling_tolerance_m
+        Points closer than this to the floor below / ceiling above a support are
+        not part of it, metres.
+    surface_tolerance_m
+        Largest distance behind the innermost surface of a sector kept in the
+        support, metres; auto ``max(0.03, 2 x spacing)``.
+    min_height_fraction
+        A support must span at least this fraction of the floor-to-ceiling (or
+        floor-to-body-top) height.
+    engaged
+        Look for engaged (half-) columns on walls.
+    engaged_radius_m
+        Plausible radius range of engaged columns, metres.
+    min_points
+        Smallest island / support, points.
+    seed
+        Seed of the random sampling (MSAC).
+    """
+
+    section_height_m: float | None = None
+    section_thickness_m: float | None = None
+    cluster_distance_m: float | None = None
+    candidate_step_m: float = 0.1
+    persistence_m: float = 0.5
+    min_support_size_m: float = 0.1
+    max_support_size_m: float = 2.5
+    wall_min_aspect: float = 3.0
+    circularity_max: float = 1.12
+    buffer_fraction: float = 1.0
+    buffer_min_m: float = 0.2
+    floor_tolerance_m: float = 0.03
+    ceiling_tolerance_m: float = 0.03
+    surface_tolerance_m: float | None = None
+    min_height_fraction: float = 0.5
+    engaged: bool = True
+    engaged_radius_m: tuple[float, float] = (0.08, 1.0)
+    min_points: int = 10
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("candidate_step_m", "persistence_m", "min_support_size_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.max_support_size_m <= self.min_support_size_m:
+            raise ValueError("max_support_size_m must exceed min_support_size_m")
+        if not 0 < self.min_height_fraction <= 1:
+            raise ValueError("min_height_fraction must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class Island:
+    """One island of a cross-section.
+
+    ``kind`` is ``noise``, ``wall``, ``column`` or ``pier``; the shape is a circle
+    (``center``, ``radius``) for columns and a rectangle (``center``, ``angle``,
+    ``size``) otherwise.
+    """
+
+    kind: str
+    index: NDArray[np.intp]
+    center: Array
+    radius: float
+    angle: float
+    size: Array
+    circularity: float
+    circle_rms: float
+    rect_rms: float
+
+
+@dataclass(frozen=True)
+class SupportResult:
+    """Supports found in a body cloud.
+
+    Attributes
+    ----------
+    instance
+        ``(N,)`` int32 support id per input point (1..K), 0 elsewhere.
+    objects
+        One row per support: ``instance``, ``class``, ``n_points``, ``x``, ``y``,
+        ``z_min``, ``z_max``, ``height_m``, ``radius_m``, ``axis_x/y/z``,
+        ``box_length_m``, ``box_width_m``, ``box_height_m``, ``fit_rms_m``,
+        ``circularity``.
+    section_height
+        z of the cross-section used (same frame as the input).
+    spacing_m
+        Estimated point spacing.
+    islands
+        Islands of the section (diagnostics).
+    notes
+        Things the user should know (no supports found, fallbacks).
+    height_scores
+        ``(height, persistent support islands)`` of the automatic section height search.
+    """
+
+    instance: NDArray[np.int32]
+    objects: pd.DataFrame
+    section_height: float
+    spacing_m: float
+    islands: list[Island] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
+    height_scores: list[tuple[float, int]] = field(default_factory=list)
+
+
+# ------------------------------------------------------------------------------ helpers
+def _spacing(xyz: Array, rng: np.random.Generator) -> float:
+    """Median 3D nearest-neighbour distance on a thick mid-height slab (surface spacing)."""
+    z = xyz[:, 2]
+    lo, hi = np.quantile(z, [0.3, 0.7])
+    cand = np.flatnonzero((z >= lo) & (z <= hi))
+    if len(cand) > 400_000:
+        cand = rng.choice(cand, 400_000, replace=False)
+    pts = xyz[cand]
+    if len(pts) < 10:
+        return 0.05
+    tree = cKDTree(pts)
+    q = pts if len(pts) <= 20000 else pts[rng.choice(len(pts), 20000, replace=False)]
+    d, _ = tree.query(q, k=2)
+    d = d[:, 1][d[:, 1] > 0]
+    # the sub-sampling inflates the distance by sqrt(total / kept) on a surface
+    inflate = np.sqrt(max(len(cand), 1) / max(np.count_nonzero((z >= lo) & (z <= hi)), 1))
+    return float(np.median(d) * inflate) if len(d) else 0.05
+
+
+def _rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[float, Array]:
+    """RMS distance to a rectangle whose edges are re-estimated as medians (2 rounds)."""
+    c, s = np.cos(angle), np.sin(angle)
+    q = xy - centre
+    uv = np.c_[q @ [c, s], q @ [-s, c]]
+    lo, hi = -size / 2, size / 2
+    for _ in range(2):
+        d = np.stack(
+            [
+                np.abs(uv[:, 0] - lo[0]),
+                np.abs(uv[:, 0] - hi[0]),
+                np.abs(uv[:, 1] - lo[1]),
+                np.abs(uv[:, 1] - hi[1]),
+            ],
+            axis=1,
+        )
+        k = d.argmin(axis=1)
+        for j, (arr, col) in enumerate(((lo, 0), (hi, 0), (lo, 1), (hi, 1))):
+            sel = k == j
+            if sel.sum() >= 2:
+                arr[col] = np.median(uv[sel, col])
+    d = np.stack(
+        [
+            np.abs(uv[:, 0] - lo[0]),
+            np.abs(uv[:, 0] - hi[0]),
+            np.abs(uv[:, 1] - lo[1]),
+            np.abs(uv[:, 1] - hi[1]),
+        ],
+        axis=1,
+    )
+    mid = (lo + hi) / 2
+    new_centre = centre + mid[0] * np.array([c, s]) + mid[1] * np.array([-s, c])
+    return float(np.sqrt(np.mean(d.min(axis=1) ** 2))), np.r_[new_centre, hi - lo]
+
+
+def section_islands(
+    xy: Array, params: SupportParams, distance_m: float, *, with_shapes: bool = True
+) -> list[Island]:
+    """Cluster a section into islands and classify them (noise, wall, column, pier).
+
+    Parameters
+    ----------
+    xy
+        ``(M, 2)`` section points, metres.
+    params
+        Size, aspect and circularity thresholds.
+    distance_m
+        Clustering distance, metres.
+    with_shapes
+        ``False`` skips the circle / rectangle fits (cheap pass for choosing the height;
+        supports are then reported as ``support``).
+    """
+    if len(xy) == 0:
+        return []
+    labels = euclidean_clusters(xy, distance_m, params.min_points)
+    order = np.argsort(labels, kind="stable")
+    counts = np.bincount(labels)
+    bounds = np.r_[0, np.cumsum(counts)]
+    out: list[Island] = []
+    for lab in range(1, len(counts)):  # loop over islands, not points
+        idx = order[bounds[lab] : bounds[lab + 1]]
+        p = xy[idx]
+        centre, angle, size = min_area_rectangle(p)
+        length, width = float(size[0]), float(size[1])
+        nan = float("nan")
+        if length < params.min_support_size_m:
+            kind = "noise"
+        elif length > params.max_support_size_m or (
+            length > 1.0 and length > params.wall_min_aspect * max(width, 1e-6)
+        ):
+            kind = "wall"
+        else:
+            kind = "support"
+        circ, c_rms, r_rms, radius = nan, nan, nan, nan
+        if kind == "support" and with_shapes:
+            circ = circularity(p)
+            circle = fit_circle(p)
+            r_rms, rect = _rect_rms(p, centre, angle, size.copy())
+            if circle and circle.radius < length:
+                c_rms = circle.rms
+            if circle and c_rms < r_rms and (circ <= params.circularity_max or c_rms < 0.5 * r_rms):
+                kind, centre, radius = "column", circle.center, circle.radius
+            else:
+                kind, centre, size = "pier", rect[:2], rect[2:]
+        out.append(
+            Island(
+                kind, idx, np.asarray(centre), radius, angle, np.asarray(size), circ, c_rms, r_rms
+            )
+        )
+    return out
+
+
+def _choose_height(
+    xyz: Array,
+    order: NDArray[np.intp],
+    z_sorted: Array,
+    params: SupportParams,
+    thickness: float,
+    distance: float,
+    z_lo: float,
+    z_hi: float,
+) -> tuple[float, list[tuple[float, int]]]:
+    """Automatic section height: middle of the longest run with the most persistent islands."""
+    cands = np.arange(z_lo, z_hi + 1e-9, params.candidate_step_m)
+    if len(cands) == 0:
+        return (z_lo + z_hi) / 2, []
+    centres: list[Array] = []
+    for h in cands:
+        s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2])
+        isl = section_islands(xyz[order[s:e], :2], params, distance, with_shapes=False)
+        sup = [i.center for i in isl if i.kind == "support"]
+        centres.append(np.array(sup).reshape(-1, 2))
+    k_off = max(1, round(params.persistence_m / params.candidate_step_m))
+    trees = [cKDTree(c) if len(c) else None for c in centres]
+    score = np.zeros(len(cands), dtype=int)
+    for k, c in enumerate(centres):
+        if not len(c):
+            continue
+        ok = np.ones(len(c), dtype=bool)
+        for j in (k - k_off, k + k_off):
+            if 0 <= j < len(cands):
+                if trees[j] is None:
+                    ok[:] = False
+                else:
+                    d, _ = trees[j].query(c)
+                    ok &= d <= 0.15
+        score[k] = int(ok.sum())
+    best = score.max()
+    # longest run of heights with the best score
+    is_best = np.r_[False, score == best, False]
+    edges = np.flatnonzero(np.diff(is_best.astype(int)))
+    starts, ends = edges[::2], edges[1::2]
+    r = int(np.argmax(ends - starts))
+    mid = (starts[r] + ends[r] - 1) / 2
+    height = float(np.interp(mid, np.arange(len(cands)), cands))
+    return height, list(zip(cands.tolist(), score.tolist(), strict=True))
+
+
+def _engaged_on_wall(
+    xy: Array, params: SupportParams, tol: float, distance: float, rng: np.random.Generator
+) -> list[tuple[Array, float, Array, float]]:
+    """Half-columns on a wall island.
+
+    Returns ``(centre, radius, unit face normal into the room, face offset, face RMS)``.
+    """
+    rest = np.arange(len(xy))
+    lines: list[tuple[Array, float, float]] = []  # (unit normal n, offset d, rms): n.x = d
+    msac = MSACParams(threshold=tol, max_trials=300, min_inlier_fraction=0.0)
+    for _ in range(12):  # wall faces (a closed wall ring has 8 and more)
+        if len(rest) < 20:
+            break
+        p = xy[rest]
+        idx = rng.integers(0, len(p), size=(msac.max_trials, 2))
+        dvec = p[idx[:, 1]] - p[idx[:, 0]]
+        nrm = np.c_[-dvec[:, 1], dvec[:, 0]]
+        ln = np.linalg.norm(nrm, axis=1)
+        good = ln > 1e-6
+        nrm = nrm[good] / ln[good, None]
+        off = np.einsum("ij,ij->i", nrm, p[idx[good, 0]])
+        sub = p if len(p) <= 3000 else p[rng.choice(len(p), 3000, replace=False)]
+        cost = np.minimum((sub @ nrm.T - off) ** 2, tol**2).sum(axis=0)
+        b = int(np.argmin(cost))
+        inl = np.abs(p @ nrm[b] - off[b]) <= tol
+        if inl.sum() < max(20, 0.02 * len(xy)):
+            break
+        # refine the face line on its inliers
+        q = p[inl]
+        m = q.mean(axis=0)
+        _, v = np.linalg.eigh((q - m).T @ (q - m))
+        n = v[:, 0]
+        d = float(n @ m)
+        inl = np.abs(p @ n - d) <= tol
+        # a face is continuous: its inliers fill most of their span along the line (the
+        # aligned apexes of several half-columns are not a face)
+        along = p[inl] @ np.array([-n[1], n[0]])
+        span = np.ptp(along) if inl.any() else 0.0
+        bins = np.unique(np.floor(along / (2 * distance)))
+        if span <= 0 or len(bins) * 2 * distance < 0.7 * span:
+            break
+        lines.append((n, d, float(np.sqrt(np.mean((p[inl] @ n - d) ** 2)))))
+        rest = rest[~inl]
+    if not lines or len(rest) < params.min_points:
+        return []
+    labels = euclidean_clusters(xy[rest], distance, params.min_points)
+    found = []
+    for lab in range(1, int(labels.max()) + 1 if len(labels) else 1):
+        p = xy[rest[labels == lab]]
+        ext = np.ptp(p, axis=0).max()
+        if ext < params.min_support_size_m:
+            continue
+        circle = fit_circle(p)
+        lo, hi = params.engaged_radius_m
+        if (
+            not circle
+            or not lo <= circle.radius <= hi
+            or circle.rms > max(tol, 0.05 * circle.radius)
+        ):
+            continue
+        # attached to a face: centre close to a face line, bump on one side
+        for n, d, face_rms in lines:
+            dc = float(circle.center @ n - d)
+            if abs(dc) <= 0.6 * circle.radius + tol:
+                side = np.sign(np.median(p @ n - d))
+                if side == 0:
+                    continue
+                # the bump must lie on the side opposite the wall body: not between faces
+                found.append((circle.center, circle.radius, side * n, side * d, face_rms))
+                break
+    return found
+
+
+def _sector_filter(
+    rho: Array, ang: Array, z: Array, layer: float, sectors: int, tol: float
+) -> NDArray[np.bool_]:
+    """Keep points within ``tol`` of the innermost surface of their (layer, sector) cell.
+
+    The innermost offset of each cell is relaxed over the neighbouring sectors (min)
+    and layers (max), so horizontal faces (plinth tops) and sparse cells survive.
+    """
+    if len(rho) == 0:
+        return np.zeros(0, dtype=bool)
+    li = np.floor((z - z.min()) / layer).astype(np.intp)
+    si = np.floor((ang + np.pi) / (2 * np.pi) * sectors).astype(np.intp) % sectors
+    nl = int(li.max()) + 1
+    rmin = np.full((nl, sectors), np.inf)
+    np.minimum.at(rmin, (li, si), rho)
+    relaxed = np.minimum(np.minimum(rmin, np.roll(rmin, 1, axis=1)), np.roll(rmin, -1, axis=1))
+    filled = np.where(np.isfinite(relaxed), relaxed, -np.inf)
+    up = np.vstack([filled[1:], np.full((1, sectors), -np.inf)])
+    down = np.vstack([np.full((1, sectors), -np.inf), filled[:-1]])
+    thr = np.maximum(np.maximum(filled, up), down)
+    return rho <= thr[li, si] + tol
+
+
+# ------------------------------------------------------------------------------ main
+def detect_supports(
+    xyz: Array,
+    params: SupportParams | None = None,
+    *,
+    spacing_m: float | None = None,
+) -> SupportResult:
+    """Find columns, piers and engaged columns in a levelled body cloud.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` levelled coordinates of the building body, metres (z up).  Run
+        :func:`pyheracles.building.attic_split` first to remove the attic.
+    params
+        Detection parameters (automatic where ``None``).
+    spacing_m
+        Known point spacing, metres; estimated when omitted.
+
+    Returns
+    -------
+    SupportResult
+        Per-point support ids aligned with ``xyz`` and the supports table.
+    """
+    params = params or SupportParams()
+    rng = np.random.default_rng(params.seed)
+    p = np.asarray(xyz, dtype=np.float64)
+    n = len(p)
+    empty = SupportResult(np.zeros(n, dtype=np.int32), _empty_table(), float("nan"), float("nan"))
+    if n < params.min_points:
+        return _with_note(empty, "too few points for a support search")
+    spacing = spacing_m if spacing_m is not None else _spacing(p, rng)
+    distance = params.cluster_distance_m or float(np.clip(4.0 * spacing, 0.03, 0.1))
+    # A slab of thickness t through a vertical surface of density lam (points / m^2) has
+    # lam * t points per metre of outline; gaps are exponential, so P(gap > d) =
+    # exp(-lam t d).  t = 9 / (lam d) keeps that below 1e-4: islands do not break up.
+    # lam from the median nearest-neighbour distance of a Poisson sample: ln 2 / (pi s^2).
+    lam = np.log(2) / (np.pi * spacing**2)
+    thickness = params.section_thickness_m or float(max(0.05, 9.0 / (lam * distance)))
+    tol = params.surface_tolerance_m or max(0.03, 2.0 * spacing)
+    order = np.argsort(p[:, 2], kind="stable")
+    z_sorted = p[order, 2]
+    z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
+    body_h = z1 - z0
+    if params.section_height_m is not None:
+        h_sec = z0 + params.section_height_m
+        scores: list[tuple[float, int]] = []
+    else:
+        h_sec, scores = _choose_height(
+            p,
+            order,
+            z_sorted,
+            params,
+            thickness,
+            distance,
+            z0 + 0.25 * body_h,
+            z0 + 0.85 * body_h,
+        )
+    s, e = np.searchsorted(z_sorted, [h_sec - thickness / 2, h_sec + thickness / 2])
+    sec_idx = order[s:e]
+    islands = section_islands(p[sec_idx, :2], params, distance)
+    notes: list[str] = []
+    if not len(sec_idx):
+        notes.append(f"the section at z = {h_sec:.2f} m is empty")
+
+    # support shapes: (kind, centre, radius or half sizes, angle, wall normal, wall d)
+    shapes: list[dict] = []
+    for isl in islands:
+        if isl.kind in ("column", "pier"):
+            shapes.append(
+                {
+                    "class": isl.kind,
+                    "island": sec_idx[isl.index],
+                    "centre": isl.center,
+                    "radius": isl.radius,
+                    "half": isl.size / 2,
+                    "angle": isl.angle,
+                    "circularity": isl.circularity,
+                }
+            )
+        elif isl.kind == "wall" and params.engaged:
+            wp = p[sec_idx[isl.index], :2]
+            for c, r, nrm, d, face_rms in _engaged_on_wall(wp, params, tol, distance, rng):
+                shapes.append(
+                    {
+                        "class": "engaged_column",
+                        "island": None,
+                        "centre": c,
+                        "radius": r,
+                        "half": np.array([r, r]),
+                        "angle": 0.0,
+                        "normal": nrm,
+                        "d": d,
+                        "face_gap": max(0.01, 3 * face_rms),
+                        "circularity": float("nan"),
+                    }
+                )
+    shapes = _dedupe(shapes)
+    if not shapes:
+        notes.append(
+            f"no support found in the section at z = {h_sec:.2f} m "
+            f"({sum(i.kind == 'wall' for i in islands)} wall islands, "
+            f"{sum(i.kind == 'noise' for i in islands)} noise islands)"
+        )
+        return SupportResult(
+            np.zeros(n, dtype=np.int32),
+            _empty_table(),
+            h_sec,
+            spacing,
+            islands,
+            tuple(notes),
+            scores,
+        )
+
+    # ---- cookie-cutter: gather candidates around each shape via a 2D cell index
+    cell = 0.25
+    xy0 = p[:, :2].min(axis=0)
+    ij = np.floor((p[:, :2] - xy0) / cell).astype(np.int64)
+    width = int(ij[:, 0].max()) + 1
+    keys = ij[:, 1] * width + ij[:, 0]
+    korder = np.argsort(keys, kind="stable")
+    ksorted = keys[korder]
+    ring_w = 0.3
+    cand_sid, cand_idx, cand_rho, cand_ang = [], [], [], []
+    for sid, sh in enumerate(shapes):
+        buf = max(params.buffer_min_m, params.buffer_fraction * float(np.max(sh["half"])))
+        sh["buffer"] = buf
+        reach = float(np.hypot(*sh["half"])) + buf + ring_w
+        lo = np.floor((sh["centre"] - reach - xy0) / cell).astype(int)
+        hi = np.floor((sh["centre"] + reach - xy0) / cell).astype(int)
+        parts = []
+        for row in range(max(lo[1], 0), hi[1] + 1):  # loop over grid rows of one support
+            a = np.searchsorted(ksorted, row * width + max(lo[0], 0), side="left")
+            b = np.searchsorted(ksorted, row * width + min(hi[0], width - 1), side="right")
+            parts.append(korder[a:b])
+        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
+        rho, ang = _offset(p[idx, :2], sh)
+        keep = rho <= buf + ring_w
+        cand_sid.append(np.full(keep.sum(), sid))
+        cand_idx.append(idx[keep])
+        cand_rho.append(rho[keep])
+        cand_ang.append(ang[keep])
+    sid_all = np.concatenate(cand_sid)
+    idx_all = np.concatenate(cand_idx)
+    rho_all = np.concatenate(cand_rho)
+    ang_all = np.concatenate(cand_ang)
+    # each point to the support it is closest to (normalised by the buffer)
+    bufs = np.array([sh["buffer"] for sh in shapes])
+    srt = np.lexsort((rho_all / bufs[sid_all], idx_all))
+    first = np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]
+    pick = srt[first]
+    sid_all, idx_all, rho_all, ang_all = sid_all[pick], idx_all[pick], rho_all[pick], ang_all[pick]
+    grp = np.argsort(sid_all, kind="stable")
+    gcounts = np.bincount(sid_all, minlength=len(shapes))
+    gb = np.r_[0, np.cumsum(gcounts)]
+
+    instance = np.zeros(n, dtype=np.int32)
+    rows = []
+    layer = max(0.05, 3.0 * spacing)
+    voxel = max(0.03, 3.0 * spacing)
+    for sid, sh in enumerate(shapes):  # loop over supports
+        sel = grp[gb[sid] : gb[sid + 1]]
+        idx, rho, ang = idx_all[sel], rho_all[sel], ang_all[sel]
+        z = p[idx, 2]
+        buf = sh["buffer"]
+        ring = rho > buf
+        # floor: the low surface of the ring (and of the cookie) under the section
+        below = z < h_sec
+        floor_pts = z[below & ring] if np.count_nonzero(below & ring) >= 10 else z[below]
+        floor_z = float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z0
+        # ceiling: per ring cell the highest point; cells covered above the section
+        ceil_z = np.inf
+        rz = p[idx[ring]]
+        if len(rz):
+            cij = np.floor((rz[:, :2] - xy0) / 0.1).astype(np.int64)
+            ck = cij[:, 1] * (int(cij[:, 0].max()) + 1) + cij[:, 0]
+            uk, inv = np.unique(ck, return_inverse=True)
+            cmax = np.full(len(uk), -np.inf)
+            np.maximum.at(cmax, inv.ravel(), rz[:, 2])
+            covered = cmax > h_sec + thickness
+            if covered.mean() >= 0.5:
+                ceil_z = float(np.quantile(cmax[covered], 0.1))
+        inside = ~ring & (z > floor_z + params.floor_tolerance_m)
+        inside &= z < ceil_z - params.ceiling_tolerance_m
+        if sh["class"] == "engaged_column":
+            front = p[idx, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
+            inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
+        cidx = idx[inside]
+        if len(cidx) < params.min_points:
+            continue
+        n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * spacing)))
+        keep = _sector_filter(rho[inside], ang[inside], p[cidx, 2], layer, min(n_sec, 72), tol)
+        cidx, crho = cidx[keep], rho[inside][keep]
+        if len(cidx) < params.min_points:
+            continue
+        # final clustering: keep what is connected to the section island
+        lab = voxel_clusters(p[cidx], voxel, 1)
+        in_sec = np.abs(p[cidx, 2] - h_sec) <= thickness / 2
+        good = np.unique(lab[in_sec & (lab > 0)])
+        if len(good) == 0:
+            continue
+        conn = np.isin(lab, good)
+        cidx, crho = cidx[conn], crho[conn]
+        zz = p[cidx, 2]
+        top_ref = min(ceil_z, z1)
+        if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
+            continue
+        rows.append(_describe(p, cidx, crho, sh, tol))
+        instance[cidx] = len(rows)
+    objects = pd.DataFrame(rows) if rows else _empty_table()
+    if len(objects):
+        objects.insert(0, "instance", np.arange(1, len(objects) + 1, dtype=np.int32))
+    if not rows:
+        notes.append("support candidates were found in the section but none spans the body height")
+    return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+def _dedupe(shapes: list[dict]) -> list[dict]:
+    """Drop a shape whose centre lies inside an earlier one (a bump seen twice)."""
+    kept: list[dict] = []
+    for sh in shapes:
+        r = float(np.max(sh["half"]))
+        if all(
+            np.hypot(*(sh["centre"] - k["centre"])) > 0.5 * (r + float(np.max(k["half"])))
+            for k in kept
+        ):
+            kept.append(sh)
+    return kept
+
+
+def _offset(xy: Array, sh: dict) -> tuple[Array, Array]:
+    """Offset of points from a support's section shape (metres, >0 outside) and angle."""
+    q = xy - sh["centre"]
+    if sh["class"] in ("column", "engaged_column"):
+        return np.hypot(q[:, 0], q[:, 1]) - sh["radius"], np.arctan2(q[:, 1], q[:, 0])
+    c, s = np.cos(sh["angle"]), np.sin(sh["angle"])
+    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    a, b = sh["half"]
+    return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)
+
+
+def _describe(p: Array, idx: NDArray[np.intp], rho: Array, sh: dict, tol: float) -> dict:
+    """Objects-table row of one support with its fitted primitive."""
+    pts = p[idx]
+    shaft = np.abs(rho) <= tol
+    fit_pts = pts[shaft] if shaft.sum() >= 20 else pts
+    if len(fit_pts) > 5000:  # the fit is as good on a spread sample and much faster
+        fit_pts = fit_pts[np.linspace(0, len(fit_pts) - 1, 5000).astype(np.intp)]
+    nan = float("nan")
+    row = {
+        "class": sh["class"],
+        "n_points": len(idx),
+        "x": nan,
+        "y": nan,
+        "z_min": float(pts[:, 2].min()),
+        "z_max": float(pts[:, 2].max()),
+        "height_m": float(np.ptp(pts[:, 2])),
+        "radius_m": nan,
+        "axis_x": nan,
+        "axis_y": nan,
+        "axis_z": nan,
+        "box_length_m": nan,
+        "box_width_m": nan,
+        "box_height_m": nan,
+        "fit_rms_m": nan,
+        "circularity": sh.get("circularity", nan),
+    }
+    if sh["class"] in ("column", "engaged_column"):
+        cyl = fit_cylinder(fit_pts, axis_hint=(0.0, 0.0, 1.0), f_scale=tol / 2)
+        if cyl:  # second pass without base / capital mouldings: residuals within 3 sigma
+            res = cyl.residuals(fit_pts)
+            sigma = 1.4826 * np.median(np.abs(res - np.median(res)))
+            close = np.abs(res - np.median(res)) <= max(3 * sigma, 1e-4)
+            if close.sum() >= 20:
+                cyl = fit_cylinder(fit_pts[close], axis_hint=cyl.axis, f_scale=max(sigma, 1e-3))
+        if cyl:
+            row.update(
+                x=float(cyl.point[0]),
+                y=float(cyl.point[1]),
+                radius_m=cyl.radius,
+                axis_x=float(cyl.axis[0]),
+                axis_y=float(cyl.axis[1]),
+                axis_z=float(cyl.axis[2]),
+                fit_rms_m=cyl.rms,
+            )
+    else:
+        box = fit_oriented_box(fit_pts, up=(0.0, 0.0, 1.0))
+        if box:
+            vert = int(np.argmax(np.abs(box.axes[2])))
+            horiz = sorted((box.extents[k] for k in range(3) if k != vert), reverse=True)
+            row.update(
+                x=float(box.centre[0]),
+                y=float(box.centre[1]),
+                box_length_m=float(horiz[0]),
+                box_width_m=float(horiz[1]),
+                box_height_m=float(np.ptp(pts[:, 2])),
+                fit_rms_m=box.rms,
+                axis_x=float(box.axes[0, 0]),
+                axis_y=float(box.axes[1, 0]),
+                axis_z=float(box.axes[2, 0]),
+            )
+    if np.isnan(row["x"]):
+        row["x"], row["y"] = (float(v) for v in sh["centre"])
+    return row
+
+
+def _empty_table() -> pd.DataFrame:
+    cols = [
+        "instance",
+        "class",
+        "n_points",
+        "x",
+        "y",
+        "z_min",
+        "z_max",
+        "height_m",
+        "radius_m",
+        "axis_x",
+        "axis_y",
+        "axis_z",
+        "box_length_m",
+        "box_width_m",
+        "box_height_m",
+        "fit_rms_m",
+        "circularity",
+    ]
+    return pd.DataFrame(
+        {c: pd.Series(dtype="int32" if c == "instance" else "float64") for c in cols}
+    )
+
+
+def _with_note(res: SupportResult, note: str) -> SupportResult:
+    return SupportResult(
+        res.instance,
+        res.objects,
+        res.section_height,
+        res.spacing_m,
+        res.islands,
+        (*res.notes, note),
+    )
