@@ -179,9 +179,10 @@ def truss_beams(params: TrussParams) -> list[Beam]:
         kp_top = c + np.array([0, 0, apex_z - 0.10])
         beams.append(_beam_between(f"king_post{i}", kp_bottom, kp_top, kp_w, kp_w, x))
         for s, sgn in (("l", -1.0), ("r", 1.0)):
-            low = c + np.array([0, sgn * (kp_w / 2 - 0.02), h0 + tie_h / 2 + 0.55])
-            # meet the rafter's lower face at 55 % of its run
-            yy = sgn * half * 0.45
+            # from the foot of the king post to the rafter's lower face, nearly
+            # square to the rafter as in real king-post trusses
+            low = c + np.array([0, sgn * (kp_w / 2 - 0.02), h0 + tie_h / 2 + 0.32])
+            yy = sgn * half * 0.36
             z_raf = foot_z + (half - abs(yy)) * tan - raf_h / (2 * cos)
             high = c + np.array([0, yy, z_raf + 0.03])
             beams.append(_beam_between(f"strut{i}{s}", low, high, strut_w, strut_h, x))
