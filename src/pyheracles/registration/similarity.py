@@ -207,6 +207,42 @@ def _skew(q: NDArray[np.float64]) -> NDArray[np.float64]:
     )
 
 
+def parameter_covariance(
+    R: NDArray[np.float64],
+    s: float,
+    centre_source: NDArray[np.float64],
+    cov_local: NDArray[np.float64],
+    with_scale: bool,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Euler angles and the 7x7 covariance of (tx, ty, tz, omega, phi, kappa, scale).
+
+    ``cov_local`` is the covariance of the adjustment unknowns (t', d, s) of the
+    centred model ``x_t - c_t = t' + s exp([d]x) R (x_s - c_s)``; the translation of
+    the full transform is ``t = c_t + t' - s R c_s``.
+    """
+    u = 7 if with_scale else 6
+    angles = Rotation.from_matrix(R).as_euler("xyz")
+    # d(angles)/d(rotation increment), central differences on the rotation manifold
+    Je = np.zeros((3, 3))
+    h = 1e-6
+    for k in range(3):
+        d = np.zeros(3)
+        d[k] = h
+        ap = Rotation.from_matrix(Rotation.from_rotvec(d).as_matrix() @ R).as_euler("xyz")
+        am = Rotation.from_matrix(Rotation.from_rotvec(-d).as_matrix() @ R).as_euler("xyz")
+        Je[:, k] = np.angle(np.exp(1j * (ap - am))) / (2 * h)
+    # dt/dt' = I, dt/dd = s [R c_s]x, dt/ds = -R c_s
+    Rcs = R @ np.asarray(centre_source, dtype=np.float64)
+    G = np.zeros((7, u))
+    G[0:3, 0:3] = np.eye(3)
+    G[0:3, 3:6] = s * _skew(Rcs[None, :])[0]
+    G[3:6, 3:6] = Je
+    if with_scale:
+        G[0:3, 6] = -Rcs
+        G[6, 6] = 1.0
+    return angles, G @ cov_local @ G.T
+
+
 def _check_geometry(src: NDArray[np.float64], tgt: NDArray[np.float64]) -> None:
     for name, p in (("source", src), ("target", tgt)):
         c = p - p.mean(axis=0)
@@ -527,26 +563,7 @@ def estimate_similarity(
     # covariance of (t', dtheta, s) in the centred frame -> (t, omega, phi, kappa, s)
     c_loc = (sigma0**2 if redundancy > 0 else 1.0) * fit.cov_local
     R = fit.R
-    angles = Rotation.from_matrix(R).as_euler("xyz")
-    # d(angles)/d(rotvec increment), by central differences on the rotation manifold
-    Je = np.zeros((3, 3))
-    h = 1e-6
-    for k in range(3):
-        d = np.zeros(3)
-        d[k] = h
-        ap = Rotation.from_matrix(Rotation.from_rotvec(d).as_matrix() @ R).as_euler("xyz")
-        am = Rotation.from_matrix(Rotation.from_rotvec(-d).as_matrix() @ R).as_euler("xyz")
-        Je[:, k] = (np.angle(np.exp(1j * (ap - am)))) / (2 * h)
-    # t = ct + t' - s R cs  ->  dt/dt' = I, dt/dd = s [R cs]x, dt/ds = -R cs
-    Rcs = R @ cs
-    G = np.zeros((7, u))
-    G[0:3, 0:3] = np.eye(3)
-    G[0:3, 3:6] = fit.s * _skew(Rcs[None, :])[0]
-    G[3:6, 3:6] = Je
-    if p.with_scale:
-        G[0:3, 6] = -Rcs
-        G[6, 6] = 1.0
-    cov = G @ c_loc @ G.T
+    angles, cov = parameter_covariance(R, fit.s, cs, c_loc, p.with_scale)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
