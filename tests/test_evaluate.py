@@ -231,16 +231,147 @@ def test_reference_from_polygons_delft(shared_data):
     share = np.count_nonzero(labels) / np.count_nonzero(cls6 & near)
     assert share > 0.85  # most building points lie in or next to a BGT footprint
     assert len(np.unique(labels[labels > 0])) > 100  # of the 160 footprints
-    # cross-check "inside" with a per-polygon loop (over polygons, not points)
+    # cross-check "inside" with an independent GEOS predicate query (all containing polygons)
+    idx6 = np.flatnonzero(cls6)
+    i_pt, i_poly = shapely.STRtree(pand.geometry.values).query(
+        shapely.points(xy[idx6]), predicate="within"
+    )
     inside_any = np.zeros(len(xy), int)
+    np.add.at(inside_any, idx6[i_pt], 1)
     first = np.zeros(len(xy), np.int32)
-    for k, geom in enumerate(pand.geometry):
-        hit = shapely.contains_xy(geom, xy[:, 0], xy[:, 1]) & cls6
-        first[hit & (inside_any == 0)] = k + 1
-        inside_any += hit
+    first[idx6[i_pt]] = i_poly + 1  # only compared where a single polygon contains the point
     single = inside_any == 1
     assert single.sum() > 0.8 * np.count_nonzero(labels)
     np.testing.assert_array_equal(labels[single], first[single])
     # a 0 m buffer keeps exactly the points inside
     strict = reference_from_polygons(xy, cls6, pand, buffer_m=0.0)
     assert np.array_equal(strict > 0, inside_any > 0)
+
+
+# ----------------------------------------------------------------------------- CLI
+@pytest.fixture(scope="module")
+def scene_files(tmp_path_factory):
+    from pyheracles.synthetic.complex_scene import (
+        ComplexSceneParams,
+        kasepuhan_scene,
+        write_scene,
+    )
+
+    scene = kasepuhan_scene(ComplexSceneParams(n_points=20_000, seed=5))
+    paths = write_scene(scene, tmp_path_factory.mktemp("scene"))
+    return scene, paths
+
+
+def _write_result(scene, folder, instance, ground):
+    from pyheracles.io import write_cloud
+
+    folder.mkdir(parents=True, exist_ok=True)
+    cloud = scene.cloud.with_attributes(classification=np.where(ground, 2, 1).astype(np.uint8))
+    path = write_cloud(cloud, folder / "segmented.laz", {"instance": instance.astype(np.int32)})
+    return path
+
+
+def test_cli_evaluate_by_key(scene_files, tmp_path):
+    from pyheracles.cli import main
+
+    scene, paths = scene_files
+    ref = scene.reference_instance
+    # predicted ids = reference ids + 100, every 4th point of each object lost
+    pred = np.where(ref > 0, ref + 100, 0)
+    pred[::4] = 0
+    result = _write_result(scene, tmp_path / "res", pred, scene.ground)
+    obj = scene.reference_objects
+    pd.DataFrame({"instance": obj["instance"] + 100, "fid": obj["fid"]}).to_csv(
+        tmp_path / "res" / "objects.csv", index=False
+    )
+    code = main(["evaluate", str(result), "--reference", str(paths["cloud"]), "--key", "fid"])
+    assert code == 0
+    table = pd.read_csv(tmp_path / "res" / "evaluation.csv")
+    assert table["object"].tolist()[-2:] == ["mean", "median"]
+    assert len(table) == len(obj) + 2
+    body = table.iloc[:-2].set_index("object")
+    assert set(body.index) == set(obj["fid"])
+    scored = body[body["n_reference"] > 0]
+    np.testing.assert_allclose(scored["precision"], 1.0)
+    kept = np.bincount(ref[pred > 0], minlength=len(obj) + 1)
+    total = np.bincount(ref, minlength=len(obj) + 1)
+    inst = obj.set_index("fid").loc[scored.index, "instance"].to_numpy()
+    np.testing.assert_allclose(scored["recall"], kept[inst] / total[inst], rtol=1e-9)
+    assert scored["recall"].mean() == pytest.approx(0.75, abs=0.03)
+    assert np.isnan(body.loc["B20", "f1"])  # demolished: no reference points
+    payload = json.loads((tmp_path / "res" / "evaluation.json").read_text())
+    assert payload["match"] == "key"
+    assert payload["ground"]["precision"] == 1.0 and payload["ground"]["recall"] == 1.0
+    assert payload["totals"]["tp"] + payload["totals"]["fn"] == np.count_nonzero(ref)
+
+
+def test_cli_evaluate_by_overlap_to_other_folder(scene_files, tmp_path):
+    from pyheracles.cli import main
+
+    scene, paths = scene_files
+    result = _write_result(scene, tmp_path / "res", scene.reference_instance, scene.ground)
+    out = tmp_path / "scores"
+    assert main(["evaluate", str(result), "-r", str(paths["cloud"]), "-o", str(out)]) == 0
+    table = pd.read_csv(out / "evaluation.csv").set_index("object")
+    np.testing.assert_allclose(table.loc[["mean", "median"], ["precision", "recall", "f1"]], 1.0)
+
+
+def test_cli_evaluate_bad_input(scene_files, tmp_path, capsys):
+    from pyheracles.cli import main
+    from pyheracles.io import write_cloud
+
+    scene, paths = scene_files
+    ref = str(paths["cloud"])
+    # fewer points than the reference
+    short = write_cloud(
+        scene.cloud.subset(np.arange(100)), tmp_path / "short.laz", {"instance": np.zeros(100)}
+    )
+    assert main(["evaluate", str(short), "--reference", ref]) == 2
+    assert "points" in capsys.readouterr().err
+    # same points in another order
+    perm = np.random.default_rng(0).permutation(len(scene.cloud))
+    shuffled = write_cloud(
+        scene.cloud.subset(perm), tmp_path / "shuffled.laz", {"instance": np.zeros(len(perm))}
+    )
+    assert main(["evaluate", str(shuffled), "--reference", ref]) == 2
+    # no instance dimension
+    plain = write_cloud(scene.cloud, tmp_path / "plain.laz")
+    assert main(["evaluate", str(plain), "--reference", ref]) == 2
+    # --key without a result objects table, and an unknown key column
+    result = _write_result(scene, tmp_path / "res", scene.reference_instance, scene.ground)
+    assert main(["evaluate", str(result), "--reference", ref, "--key", "fid"]) == 2
+    pd.DataFrame({"instance": [1], "fid": ["B01"]}).to_csv(tmp_path / "res" / "objects.csv")
+    assert main(["evaluate", str(result), "--reference", ref, "--key", "nope"]) == 2
+    # missing file
+    assert main(["evaluate", str(tmp_path / "missing.laz"), "--reference", ref]) == 2
+
+
+@pytest.mark.realdata
+def test_cli_evaluate_delft_polygons(shared_data, tmp_path):
+    """Prediction = class-6 points strictly inside the footprints; reference adds 1 m."""
+    import laspy
+    import pyogrio
+
+    from pyheracles.cli import main
+    from pyheracles.io import read_cloud, write_cloud
+
+    tile = shared_data / "delft_ahn3" / "ahn3_tile1.laz"
+    pand_path = shared_data / "delft_ahn3" / "bgt" / "bgt_pand.sqlite"
+    cloud = read_cloud(tile)
+    cls6 = np.asarray(cloud.attributes["classification"]) == 6
+    pand = pyogrio.read_dataframe(pand_path)
+    strict = reference_from_polygons(cloud.world_xyz(), cls6, pand, buffer_m=0.0)
+    res = tmp_path / "res"
+    write_cloud(cloud, res / "segmented.laz", {"instance": strict})
+    pd.DataFrame({"instance": np.arange(1, len(pand) + 1), "gml_id": pand["gml_id"]}).to_csv(
+        res / "objects.csv", index=False
+    )
+    args = ["evaluate", str(res / "segmented.laz"), "--reference", str(tile)]
+    args += ["--reference-polygons", str(pand_path), "--key", "gml_id"]
+    assert main(args) == 0
+    body = pd.read_csv(res / "evaluation.csv").iloc[:-2]
+    scored = body[body["n_reference"] > 0]
+    assert len(scored) > 100
+    np.testing.assert_allclose(scored["precision"].dropna(), 1.0)
+    assert (scored["recall"] <= 1.0).all() and scored["recall"].mean() > 0.8
+    assert laspy.read(res / "segmented.laz").header.point_count == len(cloud)

@@ -104,7 +104,9 @@ class ObjectEvaluation:
             cols.insert(1, "name")
         body = rows[cols]
         summary = self.summary().reset_index(names="object")
-        return pd.concat([body, summary], ignore_index=True)
+        out = pd.concat([body, summary], ignore_index=True)
+        counts = ["reference", "n_reference", "n_predicted", "tp", "fp", "fn"]
+        return out.astype({c: "Int64" for c in counts})  # integers with blank summary cells
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary: objects, summary, unmatched, totals."""
@@ -461,9 +463,11 @@ def reference_from_polygons(
 
     Notes
     -----
-    Vectorised with a shapely 2 STRtree nearest query bounded by ``buffer_m``
-    (GEOS computes the exact point-polygon distances); points are processed
-    in chunks of ``chunk`` to bound memory.
+    Vectorised with a shapely 2 STRtree: a containment query (prepared
+    polygons) for the points inside, then a ``dwithin`` query and exact GEOS
+    point-polygon distances for the points outside; where polygons overlap,
+    the lowest row wins.  Points are processed in chunks of ``chunk`` to
+    bound memory.
 
     Examples
     --------
@@ -495,12 +499,26 @@ def reference_from_polygons(
     if not len(geoms):
         return labels
     tree = shapely.STRtree(geoms)
+    shapely.prepare(geoms)  # speeds up the containment predicate, harmless to the caller
     cand = np.flatnonzero(mask & np.isfinite(pts[:, :2]).all(axis=1))
     for s in range(0, len(cand), chunk):  # chunks of points, each one vectorised GEOS call
         idx = cand[s : s + chunk]
         points = shapely.points(pts[idx, 0], pts[idx, 1])
-        i_pt, i_poly = tree.query_nearest(
-            points, max_distance=max(buffer_m, 1e-9), all_matches=False
-        )
-        labels[idx[i_pt]] = i_poly.astype(np.int32) + 1
+        # inside (distance 0): the lowest polygon index wins where polygons overlap
+        i_pt, i_poly = tree.query(points, predicate="intersects")
+        first = np.r_[True, i_pt[1:] != i_pt[:-1]]  # pairs are sorted by point
+        labels[idx[i_pt[first]]] = i_poly[first].astype(np.int32) + 1
+        if buffer_m <= 0:
+            continue
+        # outside every polygon but within the buffer: the nearest polygon wins
+        outside = np.ones(len(idx), bool)
+        outside[i_pt] = False
+        rest = np.flatnonzero(outside)
+        j_pt, j_poly = tree.query(points[rest], predicate="dwithin", distance=buffer_m)
+        if len(j_pt):
+            dist = shapely.distance(points[rest][j_pt], geoms[j_poly])
+            order = np.lexsort((j_poly, dist, j_pt))
+            j_pt, j_poly = j_pt[order], j_poly[order]
+            first = np.r_[True, j_pt[1:] != j_pt[:-1]]
+            labels[idx[rest[j_pt[first]]]] = j_poly[first].astype(np.int32) + 1
     return labels
