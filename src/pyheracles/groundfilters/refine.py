@@ -15,10 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from pyheracles.errors import InputError
-from pyheracles.groundfilters.surface import DTM, Grid, inpaint, rasterise
+from pyheracles.groundfilters.surface import DTM, Grid, inpaint, mean_surface, sample_raster
 
 __all__ = ["RefineParams", "refine_ground"]
 
@@ -90,26 +89,25 @@ def refine_ground(
     mask
         (N,) bool refined ground.
     dtm
-        The last terrain model (mean height of the ground seeds per cell, inpainted).
+        The last terrain model (:func:`mean_surface` of the ground, inpainted).
     sigma_m
         Robust standard deviation of the ground residuals of the last pass, metres.
     """
     p = RefineParams() if params is None else params
     xy = xyz[:, :2]
     grid = Grid.covering(xy, p.cell_m)
-    frac = grid.fractional_index(xy)
     mask = np.asarray(seeds, dtype=bool)
     dtm: DTM | None = None
     sigma = float("nan")
     for _ in range(int(p.iterations)):
         if not mask.any():
             break
-        z = rasterise(grid, xy[mask], xyz[mask, 2], "mean")
+        z = mean_surface(grid, xy[mask], xyz[mask, 2])
         dtm = DTM(inpaint(z), grid, np.isfinite(z))
-        residual = xyz[:, 2] - ndimage.map_coordinates(dtm.z_m, frac, order=1, mode="nearest")
+        residual = xyz[:, 2] - sample_raster(grid, dtm.z_m, xy)
         sigma = _robust_sigma(residual[mask])
         base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
-        slope = ndimage.map_coordinates(dtm.slope(), frac, order=1, mode="nearest")
+        slope = sample_raster(grid, dtm.slope(), xy)
         mask = np.abs(residual) <= base + p.slope_scalar * slope * p.cell_m
     if dtm is None:
         raise InputError("no ground seed to refine", hint="check the first filter's result")

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from pyheracles.errors import InputError
-from pyheracles.groundfilters.surface import DTM, Grid, inpaint, rasterise
+from pyheracles.groundfilters.surface import DTM, Grid, inpaint, rasterise, sample_raster
 
 __all__ = ["SMRFParams", "smrf"]
 
@@ -160,8 +160,7 @@ def smrf(
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
     provisional = DTM(inpaint(np.where(keep, zmin, np.nan)), grid, keep)
-    frac = grid.fractional_index(xy)
-    ground_z = ndimage.map_coordinates(provisional.z_m, frac, order=1, mode="nearest")
-    dtm_slope = ndimage.map_coordinates(provisional.slope(), frac, order=1, mode="nearest")
+    ground_z = sample_raster(grid, provisional.z_m, xy)
+    dtm_slope = sample_raster(grid, provisional.slope(), xy)
     mask = np.abs(xyz[:, 2] - ground_z) <= p.threshold_m + p.scalar * dtm_slope
     return mask, provisional

@@ -20,7 +20,16 @@ from pyheracles.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover
     from affine import Affine
 
-__all__ = ["DTM", "Grid", "dtm_from_ground", "height_above_ground", "inpaint", "rasterise"]
+__all__ = [
+    "DTM",
+    "Grid",
+    "dtm_from_ground",
+    "height_above_ground",
+    "inpaint",
+    "mean_surface",
+    "rasterise",
+    "sample_raster",
+]
 
 
 @dataclass(frozen=True)
@@ -91,6 +100,60 @@ def rasterise(
         (np.minimum if statistic == "min" else np.maximum).at(out, flat, z)
         out[~np.isfinite(out)] = np.nan
     return out.reshape(grid.shape)
+
+
+def sample_raster(
+    grid: Grid, values: NDArray[np.float64], xy: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Bilinear value of a raster at points ``xy`` (N, 2), extrapolated linearly at the edges.
+
+    Between cell centres the raster is interpolated bilinearly; in the outer half cell
+    (and beyond) it is extrapolated linearly from the two outermost cells, so a plane is
+    reproduced exactly everywhere (``mode="nearest"`` alone would flatten it there).
+    """
+    padded = np.pad(values, 1, mode="edge")
+    if values.shape[0] > 1:
+        padded[0, :] = 2 * padded[1, :] - padded[2, :]
+        padded[-1, :] = 2 * padded[-2, :] - padded[-3, :]
+    if values.shape[1] > 1:
+        padded[:, 0] = 2 * padded[:, 1] - padded[:, 2]
+        padded[:, -1] = 2 * padded[:, -2] - padded[:, -3]
+    frac = grid.fractional_index(xy) + 1.0
+    return ndimage.map_coordinates(padded, frac, order=1, mode="nearest")
+
+
+def _gradient(values: NDArray[np.float64], cell_m: float) -> tuple[NDArray, NDArray]:
+    """(d/dy, d/dx) of a raster, with y growing northwards (rows grow southwards)."""
+    rows, cols = values.shape
+    gx = np.gradient(values, cell_m, axis=1) if cols > 1 else np.zeros_like(values)
+    gy = -np.gradient(values, cell_m, axis=0) if rows > 1 else np.zeros_like(values)
+    return gy, gx
+
+
+def mean_surface(
+    grid: Grid, xy: NDArray[np.float64], z: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Height of the points' surface at each cell centre; NaN where no point falls.
+
+    The mean height of a cell's points is the surface at their centroid, not at the cell
+    centre: on a 45° slope with points bunched on one side the two differ by up to half a
+    cell. The mean is moved to the centre with the raster's own gradient (one linear
+    correction step: exact on planes).
+    """
+    row, col = grid.index(xy)
+    flat = row * grid.shape[1] + col
+    size = grid.shape[0] * grid.shape[1]
+    count = np.bincount(flat, minlength=size).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mz = (np.bincount(flat, weights=z, minlength=size) / count).reshape(grid.shape)
+        mx = (np.bincount(flat, weights=xy[:, 0], minlength=size) / count).reshape(grid.shape)
+        my = (np.bincount(flat, weights=xy[:, 1], minlength=size) / count).reshape(grid.shape)
+    rr, cc = np.indices(grid.shape)
+    dx = grid.x0_m + (cc + 0.5) * grid.cell_m - mx
+    dy = grid.y0_m - (rr + 0.5) * grid.cell_m - my
+    gy, gx = _gradient(mz, grid.cell_m)
+    shift = np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
+    return mz + shift
 
 
 def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -176,19 +239,13 @@ class DTM:
         """``(rows, cols)``."""
         return self.grid.shape
 
-    def sample(self, xy: NDArray[np.float64], *, order: int = 1) -> NDArray[np.float64]:
-        """Ground height under each point of ``xy`` (N, 2), bilinear (``order=1``) by default.
-
-        Points outside the raster take the height of the nearest edge cell.
-        """
-        xy = np.asarray(xy, dtype=np.float64)
-        return ndimage.map_coordinates(
-            self.z_m, self.grid.fractional_index(xy), order=order, mode="nearest"
-        )
+    def sample(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Ground height under each point of ``xy`` (N, 2), bilinear (:func:`sample_raster`)."""
+        return sample_raster(self.grid, self.z_m, np.asarray(xy, dtype=np.float64))
 
     def slope(self) -> NDArray[np.float64]:
         """Terrain slope per cell as rise over run (dimensionless, 1.0 = 45°)."""
-        gy, gx = np.gradient(self.z_m, self.grid.cell_m)
+        gy, gx = _gradient(self.z_m, self.grid.cell_m)
         return np.hypot(gx, gy)
 
     def transform(self, offset: NDArray[np.float64] | None = None) -> Affine:
@@ -222,7 +279,8 @@ def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: f
     -------
     DTM
         Covering the extent of ALL points (so every point has a ground height); each
-        cell holds the mean height of its ground points, empty cells are inpainted.
+        cell holds the height of its ground points' surface at the cell centre
+        (:func:`mean_surface`), empty cells are inpainted.
 
     Raises
     ------
@@ -242,7 +300,7 @@ def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: f
             "or check the ground filter parameters",
         )
     grid = Grid.covering(xyz[:, :2], cell_m)
-    z = rasterise(grid, xyz[mask, :2], xyz[mask, 2], "mean")
+    z = mean_surface(grid, xyz[mask, :2], xyz[mask, 2])
     observed = np.isfinite(z)
     return DTM(inpaint(z), grid, observed)
 
