@@ -243,7 +243,9 @@ def prepare_building(
 
 
 # ------------------------------------------------------------------------------ attic
-def attic_split(xyz: Array, params: AtticParams | None = None) -> AtticSplit:
+def attic_split(
+    xyz: Array, params: AtticParams | None = None, *, z_order: NDArray[np.intp] | None = None
+) -> AtticSplit:
     """Split a levelled building cloud into attic and body by slice hull areas.
 
     Slices every ``interval_m`` from the ground tolerance up; going up from the
@@ -259,6 +261,8 @@ def attic_split(xyz: Array, params: AtticParams | None = None) -> AtticSplit:
         ``(N, 3)`` levelled coordinates, metres.
     params
         Thesis defaults: 0.2 m interval, 5 cm slices, 10 % area change.
+    z_order
+        ``argsort(xyz[:, 2])`` if already computed.
 
     Returns
     -------
@@ -270,7 +274,7 @@ def attic_split(xyz: Array, params: AtticParams | None = None) -> AtticSplit:
 
     params = params or AtticParams()
     p = np.asarray(xyz, dtype=np.float64)
-    prof = slice_profile(p, params.slices())
+    prof = slice_profile(p, params.slices(), z_order=z_order)
     none = AtticSplit(np.zeros(len(p), dtype=bool), None, prof)
     a = prof.areas
     if len(a) < 3:
@@ -409,8 +413,9 @@ def segment_building(
     {'pier': 10, 'column': 4, 'attic': 1, 'body': 1}
     """
     cloud = prepare_building(xyz, prep, source=source)
+    order = np.argsort(cloud.xyz[:, 2])
     split = (
-        attic_split(cloud.xyz, attic)
+        attic_split(cloud.xyz, attic, z_order=order)
         if split_attic
         else AtticSplit(
             np.zeros(len(cloud.xyz), dtype=bool),
@@ -419,7 +424,10 @@ def segment_building(
         )
     )
     body_idx = np.flatnonzero(~split.attic)
-    found = detect_supports(cloud.xyz[body_idx], supports)
+    # z order of the body from the one of the whole cloud (one sort of N points, not two)
+    position = np.cumsum(~split.attic) - 1  # index of each body point within the body
+    body_order = position[order[~split.attic[order]]]
+    found = detect_supports(cloud.xyz[body_idx], supports, z_order=body_order)
     full = np.zeros(len(cloud.xyz), dtype=np.int32)
     full[body_idx] = found.instance
     found = replace(found, instance=full)

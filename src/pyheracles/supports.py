@@ -200,8 +200,8 @@ def _spacing(xyz: Array, rng: np.random.Generator) -> float:
     z = xyz[:, 2]
     lo, hi = np.quantile(z, [0.3, 0.7])
     cand = np.flatnonzero((z >= lo) & (z <= hi))
-    if len(cand) > 400_000:
-        cand = rng.choice(cand, 400_000, replace=False)
+    if len(cand) > 100_000:
+        cand = rng.choice(cand, 100_000, replace=False)
     pts = xyz[cand]
     if len(pts) < 10:
         return 0.05
@@ -212,6 +212,16 @@ def _spacing(xyz: Array, rng: np.random.Generator) -> float:
     # the sub-sampling inflates the distance by sqrt(total / kept) on a surface
     inflate = np.sqrt(max(len(cand), 1) / max(np.count_nonzero((z >= lo) & (z <= hi)), 1))
     return float(np.median(d) * inflate) if len(d) else 0.05
+
+
+def _thin2d(xy: Array, cell: float) -> Array:
+    """One point per occupied square cell of side ``cell`` (the first in input order)."""
+    if len(xy) == 0:
+        return xy
+    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    keys = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+    _, first = np.unique(keys, return_index=True)
+    return xy[np.sort(first)]
 
 
 def _rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[float, Array]:
@@ -273,12 +283,24 @@ def section_islands(
     counts = np.bincount(labels)
     bounds = np.r_[0, np.cumsum(counts)]
     out: list[Island] = []
+    nan = float("nan")
     for lab in range(1, len(counts)):  # loop over islands, not points
         idx = order[bounds[lab] : bounds[lab + 1]]
         p = xy[idx]
-        centre, angle, size = min_area_rectangle(p)
+        if np.hypot(*np.ptp(p, axis=0)) < params.min_support_size_m:  # cheap: clearly noise
+            out.append(
+                Island("noise", idx, p.mean(axis=0), nan, 0.0, np.ptp(p, axis=0), nan, nan, nan)
+            )
+            continue
+        if with_shapes:
+            centre, angle, size = min_area_rectangle(p)
+        else:  # principal axes: enough to tell noise / wall / support, no hull needed
+            centre = p.mean(axis=0)
+            _, vec = np.linalg.eigh(np.cov((p - centre).T))
+            uv = (p - centre) @ vec[:, ::-1]
+            size = np.ptp(uv, axis=0)
+            angle = float(np.arctan2(vec[1, 1], vec[0, 1]))
         length, width = float(size[0]), float(size[1])
-        nan = float("nan")
         if length < params.min_support_size_m:
             kind = "noise"
         elif length > params.max_support_size_m or (
@@ -323,7 +345,9 @@ def _choose_height(
     centres: list[Array] = []
     for h in cands:
         s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2])
-        isl = section_islands(xyz[order[s:e], :2], params, distance, with_shapes=False)
+        # one point per (distance / 2) cell keeps every link of the clustering
+        xy = _thin2d(xyz[order[s:e], :2], distance / 2)
+        isl = section_islands(xy, params, distance, with_shapes=False)
         sup = [i.center for i in isl if i.kind == "support"]
         centres.append(np.array(sup).reshape(-1, 2))
     k_off = max(1, round(params.persistence_m / params.candidate_step_m))
@@ -454,6 +478,7 @@ def detect_supports(
     params: SupportParams | None = None,
     *,
     spacing_m: float | None = None,
+    z_order: NDArray[np.intp] | None = None,
 ) -> SupportResult:
     """Find columns, piers and engaged columns in a levelled body cloud.
 
@@ -466,6 +491,8 @@ def detect_supports(
         Detection parameters (automatic where ``None``).
     spacing_m
         Known point spacing, metres; estimated when omitted.
+    z_order
+        ``argsort`` of ``xyz[:, 2]`` when the caller has it (saves a sort).
 
     Returns
     -------
@@ -488,7 +515,7 @@ def detect_supports(
     lam = np.log(2) / (np.pi * spacing**2)
     thickness = params.section_thickness_m or float(max(0.05, 9.0 / (lam * distance)))
     tol = params.surface_tolerance_m or max(0.03, 2.0 * spacing)
-    order = np.argsort(p[:, 2], kind="stable")
+    order = np.argsort(p[:, 2]) if z_order is None else np.asarray(z_order)
     z_sorted = p[order, 2]
     z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
     body_h = z1 - z0
@@ -694,8 +721,8 @@ def _describe(p: Array, idx: NDArray[np.intp], rho: Array, sh: dict, tol: float)
     pts = p[idx]
     shaft = np.abs(rho) <= tol
     fit_pts = pts[shaft] if shaft.sum() >= 20 else pts
-    if len(fit_pts) > 5000:  # the fit is as good on a spread sample and much faster
-        fit_pts = fit_pts[np.linspace(0, len(fit_pts) - 1, 5000).astype(np.intp)]
+    if len(fit_pts) > 3000:  # the fit is as good on a spread sample and much faster
+        fit_pts = fit_pts[np.linspace(0, len(fit_pts) - 1, 3000).astype(np.intp)]
     nan = float("nan")
     row = {
         "class": sh["class"],

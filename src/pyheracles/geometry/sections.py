@@ -78,16 +78,22 @@ class SliceProfile:
 
 
 def slices(
-    z: NDArray[np.float64], centres: NDArray[np.float64], thickness_m: float
+    z: NDArray[np.float64],
+    centres: NDArray[np.float64],
+    thickness_m: float,
+    *,
+    order: NDArray[np.intp] | None = None,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
     """Points of each slab ``|z - centre| <= thickness / 2`` without a loop over points.
+
+    ``order`` is ``argsort(z)`` when the caller already has it.
 
     Returns
     -------
     order, starts, ends
         ``order[starts[i]:ends[i]]`` are the indices of the points of slab ``i``.
     """
-    order = np.argsort(z, kind="stable")
+    order = np.argsort(z) if order is None else order
     zs = z[order]
     starts = np.searchsorted(zs, centres - thickness_m / 2, side="left")
     ends = np.searchsorted(zs, centres + thickness_m / 2, side="right")
@@ -144,6 +150,7 @@ def slice_profile(
     *,
     max_points_per_slice: int = 200_000,
     rng: np.random.Generator | int | None = 0,
+    z_order: NDArray[np.intp] | None = None,
 ) -> SliceProfile:
     """Convex hull area of horizontal slabs from the ground tolerance to the top.
 
@@ -158,6 +165,8 @@ def slice_profile(
         sample differs from the full hull by far less than the noise).
     rng
         Seed of that subsampling.
+    z_order
+        ``argsort(xyz[:, 2])`` if already computed.
 
     Returns
     -------
@@ -173,7 +182,7 @@ def slice_profile(
     z0, z1 = float(p[:, 2].min()), float(p[:, 2].max())
     first = z0 + params.ground_tolerance_m + params.thickness_m / 2
     centres = np.arange(first, z1 + 1e-9, params.interval_m)
-    order, starts, ends = slices(p[:, 2], centres, params.thickness_m)
+    order, starts, ends = slices(p[:, 2], centres, params.thickness_m, order=z_order)
     areas = np.zeros(len(centres))
     perims = np.zeros(len(centres))
     for i, (s, e) in enumerate(zip(starts, ends, strict=True)):  # loop over slices

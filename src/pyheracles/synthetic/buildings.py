@@ -274,7 +274,7 @@ class _Builder:
         t0, t1 = facing - np.pi / 2, facing + np.pi / 2
         s.add(s.cylinder(cx, cy, r, z0, z1 - 0.2, t0, t1), "engaged", inst)
         s.add(s.frustum(cx, cy, r, 1.3 * r, z1 - 0.2, z1, t0, t1), "engaged", inst)
-        self.footprints.append(("disc", (cx, cy, 1.3 * r)))
+        self.footprints.append(("disc", (cx, cy, r)))
         return inst
 
     def table(self) -> pd.DataFrame:
