@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -16,16 +20,33 @@ console = Console()
 __all__ = ["console", "output_dir", "print_counts", "print_objects"]
 
 
-def output_dir(path: Path, *, force: bool = False) -> Path:
-    """Create the output folder; refuse a non-empty one unless ``force``."""
+@contextmanager
+def output_dir(path: Path, *, force: bool = False) -> Iterator[Path]:
+    """A staging folder that becomes ``path`` only when the command succeeds.
+
+    Outputs are written into a hidden sibling folder; on success its files are
+    moved into ``path`` (created if needed), on any error the staging folder is
+    deleted, so a failed run leaves no partial output behind.  A non-empty
+    ``path`` is refused unless ``force``.
+    """
     if path.exists() and not path.is_dir():
         raise InputError("output path exists and is not a folder", path=path)
     if path.is_dir() and any(path.iterdir()) and not force:
         raise InputError(
             "output folder is not empty", path=path, hint="choose a new folder or pass --force"
         )
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
+    try:
+        yield stage
+        path.mkdir(exist_ok=True)
+        for item in stage.iterdir():
+            target = path / item.name
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target)
+            os.replace(item, target)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def print_objects(objects: Any, columns: Sequence[str], *, limit: int = 40) -> None:

@@ -134,12 +134,12 @@ def register(app: typer.Typer) -> None:
             ground=ground,
             layer_order=tuple(s.strip() for s in order.split(",")) if order else None,
         )  # fmt: skip
-        outdir = output_dir(out, force=force)
-        with enabled(console):
+        with output_dir(out, force=force) as stage, enabled(console):
             result, paths, timings = run_complex(
-                cloud, layer, outdir, params=params, reproject=reproject,
+                cloud, layer, stage, params=params, reproject=reproject,
                 fix_invalid=fix_invalid, cloud_crs=cloud_crs, per_object=per_object,
             )  # fmt: skip
+        paths = {k: out / v.relative_to(stage) for k, v in paths.items()}
         seg = result.segmentation
         print_objects(seg.objects, ["instance", "class", "source_fid", "n_points", "height"])
         print_counts(seg.counts(), timings, paths)

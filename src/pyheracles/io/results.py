@@ -39,7 +39,12 @@ def write_objects_table(objects: pd.DataFrame, outdir: Path, crs: Any) -> Path:
             if col != table.geometry.name and table[col].dtype == object:
                 table[col] = table[col].astype("string")
         with atomic_path(path) as tmp:
-            table.to_file(tmp, driver="GPKG", layer="objects", engine="pyogrio")
+            # "fid" is the GeoPackage primary key's default name; GIS layers often
+            # carry an attribute of that name, so the key is called ogc_fid.
+            table.to_file(
+                tmp, driver="GPKG", layer="objects", engine="pyogrio",
+                layer_options={"FID": "ogc_fid"},
+            )  # fmt: skip
         return path
     path = outdir / "objects.csv"
     table = pd.DataFrame(objects).drop(columns=["geometry"], errors="ignore")
