@@ -39,6 +39,7 @@ __all__ = [
     "prepare_building",
     "segment_attic",
     "segment_building",
+    "to_input_frame",
 ]
 
 Array = NDArray[np.float64]
@@ -401,8 +402,9 @@ def segment_building(
     seg
         Labels aligned with ``xyz``: supports, ``attic``, rest of the ``body``.
     found, split, cloud
-        Intermediate results (support details, attic limit, levelling and units);
-        support coordinates in the objects table are in the prepared frame.
+        Intermediate results (support details, attic limit, levelling and units).
+        Support positions in the objects table (``x``, ``y``, ``z_min``, ``z_max``,
+        axis) are in the input frame and units; dimensions (``*_m``) in metres.
 
     Examples
     --------
@@ -430,6 +432,28 @@ def segment_building(
     found = detect_supports(cloud.xyz[body_idx], supports, z_order=body_order)
     full = np.zeros(len(cloud.xyz), dtype=np.int32)
     full[body_idx] = found.instance
-    found = replace(found, instance=full)
+    found = replace(found, instance=full, objects=_to_input_frame(found.objects, cloud))
     notes = (*cloud.notes, *split.notes, *found.notes)
     return _segmentation(len(cloud.xyz), split.attic, found, notes), found, split, cloud
+
+
+def to_input_frame(points: Array, cloud: PreparedCloud) -> Array:
+    """Map ``(M, 3)`` points of the prepared (levelled, metre) frame back to the input."""
+    q = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    return ((q - cloud.centre) @ cloud.rotation + cloud.centre) / cloud.scale_to_m
+
+
+def _to_input_frame(objects: pd.DataFrame, cloud: PreparedCloud) -> pd.DataFrame:
+    """Support positions (x, y, z_min, z_max, axis) in the input frame and units."""
+    if not len(objects):
+        return objects
+    out = objects.copy()
+    mid = (out["z_min"] + out["z_max"]).to_numpy() / 2
+    centre = np.c_[out["x"].to_numpy(), out["y"].to_numpy(), mid]
+    back = to_input_frame(centre, cloud)
+    half = (out["z_max"] - out["z_min"]).to_numpy() / 2 / cloud.scale_to_m
+    out["x"], out["y"] = back[:, 0], back[:, 1]
+    out["z_min"], out["z_max"] = back[:, 2] - half, back[:, 2] + half
+    axes = np.c_[out["axis_x"], out["axis_y"], out["axis_z"]] @ cloud.rotation
+    out["axis_x"], out["axis_y"], out["axis_z"] = axes[:, 0], axes[:, 1], axes[:, 2]
+    return out

@@ -1,0 +1,235 @@
+"""``heracles attic`` and ``heracles supports``: step 2a on one building cloud."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+__all__ = ["register"]
+
+_ATTIC_HELP = "\n\n".join(
+    [
+        "Split one building cloud into attic and body (thesis ch. 6.2, MATLAB atticsegment).",
+        "Horizontal slices every --interval metres, --thickness thick; the attic starts where "
+        "the convex hull area of consecutive slices changes by more than --area-change "
+        "(thesis: 0.2 m, 5 cm, 10 %). 'No attic' when there is none. Millimetre clouds are "
+        "rescaled and tilted clouds levelled (reported as notes).",
+        "Writes into OUTDIR: segmented.laz (every input point in input order, extra "
+        "dimensions instance and class_id: 1 body, 2 attic), objects.csv / objects.gpkg and "
+        "run.json.",
+        "Examples:",
+        "  heracles attic pavilion.laz -o out/attic",
+        "  heracles attic chapel.ply --area-change 0.15 -o out/attic",
+    ]
+)
+
+_SUPPORTS_HELP = "\n\n".join(
+    [
+        "Find the structural supports of one building cloud: columns, piers and engaged "
+        "columns (thesis ch. 6.2, MATLAB supportdetect), after removing the attic.",
+        "The cross-section height is chosen automatically where support islands are most "
+        "numerous and stable (below capitals, away from fences); --section-height forces it "
+        "(metres above the lowest body point). Columns vs piers by hull circularity "
+        "(thesis: 1.12) and a circle-versus-rectangle fit test; each support gets a fitted "
+        "cylinder (radius, axis, height, RMS) or oriented box (length, width, height, RMS).",
+        "Writes into OUTDIR: segmented.laz (instance + class_id: 1 body, 2 attic, 3 column, "
+        "4 pier, 5 engaged_column), objects.gpkg (with a CRS; support axes as points) or "
+        "objects.csv, run.json; with --per-object one LAZ per support.",
+        "Examples:",
+        "  heracles supports hall.laz -o out/supports",
+        "  heracles supports choir.laz --section-height 4.2 -o out/supports",
+        "  heracles supports scan_mm.e57 --units mm --no-attic -o out/supports",
+    ]
+)
+
+
+def _objects_frame(objects: Any, cloud: Any) -> Any:
+    """Objects table in world coordinates; a GeoDataFrame of axis points with a CRS."""
+    import geopandas as gpd
+    import numpy as np
+
+    out = objects.copy()
+    for col, k in (("x", 0), ("y", 1), ("z_min", 2), ("z_max", 2)):
+        if col in out.columns:
+            out[col] = out[col].astype(float) + float(cloud.offset[k])
+    if cloud.crs is None or "x" not in out.columns:
+        return out
+    has = out["x"].notna().to_numpy()
+    geom = gpd.GeoSeries.from_xy(
+        np.where(has, out["x"].fillna(0), np.nan), np.where(has, out["y"].fillna(0), np.nan)
+    )
+    geom[~has] = None
+    return gpd.GeoDataFrame(out, geometry=geom, crs=cloud.crs)
+
+
+def _summary(title: str, seg: Any, extra_rows: list[tuple[str, str]], timings: dict) -> None:
+    from rich.table import Table
+
+    from pyheracles.cli.common import console, print_objects
+
+    cols = ["instance", "class", "n_points", "x", "y", "height_m", "radius_m", "box_length_m",
+            "box_width_m", "fit_rms_m"]  # fmt: skip
+    print_objects(seg.objects, cols)
+    table = Table(title=title, show_header=False)
+    for k, v in extra_rows:
+        table.add_row(k, v)
+    c = seg.counts()
+    table.add_row("points", f"{c['total']:,} (objects {c['objects']:,}, rest {c['remainder']:,})")
+    table.add_row("time", ", ".join(f"{k} {v:.1f} s" for k, v in timings.items()))
+    console.print(table)
+    for w in seg.warnings:
+        console.print(f"[yellow]note:[/] {w}", highlight=False)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``attic`` and ``supports`` subcommands to ``app``."""
+
+    @app.command("attic", help=_ATTIC_HELP)
+    def attic_command(
+        cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Building cloud file.")],
+        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        interval_m: Annotated[
+            float, typer.Option("--interval", help="Slice interval, metres (thesis 0.2).")
+        ] = 0.2,
+        thickness_m: Annotated[
+            float, typer.Option("--thickness", help="Slice thickness, metres (thesis 0.05).")
+        ] = 0.05,
+        area_change: Annotated[
+            float, typer.Option("--area-change", help="Relative hull area change (thesis 0.1).")
+        ] = 0.10,
+        units: Annotated[str, typer.Option("--units", help="auto, m or mm.")] = "auto",
+        force: Annotated[bool, typer.Option("--force", help="Write into a non-empty folder.")] = (
+            False
+        ),
+    ) -> None:
+        from dataclasses import asdict, replace
+
+        import numpy as np
+
+        from pyheracles.building import AtticParams, BuildingParams, segment_attic, to_input_frame
+        from pyheracles.cli.common import output_dir
+        from pyheracles.errors import InputError
+        from pyheracles.io import read_cloud
+        from pyheracles.io.results import write_segmentation
+
+        if units not in ("auto", "m", "mm"):
+            raise InputError(f"unknown --units {units!r}; expected one of auto, m, mm")
+        try:
+            params = AtticParams(interval_m=interval_m, thickness_m=thickness_m,
+                                 area_change=area_change)  # fmt: skip
+            params.slices()
+        except ValueError as exc:
+            raise InputError(str(exc)) from exc
+        timings: dict[str, float] = {}
+        with output_dir(outdir, force=force) as stage:
+            t = time.perf_counter()
+            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            timings["read"] = time.perf_counter() - t
+            t = time.perf_counter()
+            seg, split, prepared = segment_attic(
+                cloud.xyz, params, BuildingParams(units=units), source=str(cloud_path)
+            )
+            timings["attic"] = time.perf_counter() - t
+            t = time.perf_counter()
+            seg = replace(seg, objects=_objects_frame(seg.objects, cloud))
+            write_segmentation(
+                cloud, seg, stage, step="attic",
+                parameters={"attic": asdict(params), "units": units},
+                inputs=[cloud_path], timings=timings,
+                extra={"limit_z_levelled_m": split.limit_z, "tilt_deg": prepared.tilt_deg,
+                       "scale_to_m": prepared.scale_to_m,
+                       "slice_heights_m": split.profile.heights.tolist(),
+                       "slice_areas_m2": split.profile.areas.tolist()},
+            )  # fmt: skip
+            timings["write"] = time.perf_counter() - t
+        limit = "no attic"
+        if split.limit_z is not None:
+            world = to_input_frame(np.r_[prepared.centre[:2], split.limit_z], prepared)[0, 2]
+            limit = f"z = {world + float(cloud.offset[2]):.2f} (input frame)"
+        _summary(f"heracles attic: {cloud_path.name}", seg,
+                 [("attic limit", limit), ("output", str(outdir))], timings)  # fmt: skip
+
+    @app.command("supports", help=_SUPPORTS_HELP)
+    def supports_command(
+        cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Building cloud file.")],
+        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        section_height_m: Annotated[
+            float | None,
+            typer.Option("--section-height", help="Section height above the body bottom, m."),
+        ] = None,
+        circularity_max: Annotated[
+            float, typer.Option("--circularity", help="Largest column circularity (thesis 1.12).")
+        ] = 1.12,
+        no_attic: Annotated[
+            bool, typer.Option("--no-attic", help="Do not remove an attic first.")
+        ] = False,
+        no_engaged: Annotated[
+            bool, typer.Option("--no-engaged", help="Do not look for engaged columns.")
+        ] = False,
+        units: Annotated[str, typer.Option("--units", help="auto, m or mm.")] = "auto",
+        per_object: Annotated[
+            bool, typer.Option("--per-object", help="Also write one LAZ per object.")
+        ] = False,
+        force: Annotated[bool, typer.Option("--force", help="Write into a non-empty folder.")] = (
+            False
+        ),
+    ) -> None:
+        from dataclasses import asdict, replace
+
+        from pyheracles.building import BuildingParams, segment_building
+        from pyheracles.cli.common import output_dir
+        from pyheracles.errors import InputError
+        from pyheracles.io import read_cloud
+        from pyheracles.io.results import write_segmentation
+        from pyheracles.supports import SupportParams
+
+        if units not in ("auto", "m", "mm"):
+            raise InputError(f"unknown --units {units!r}; expected one of auto, m, mm")
+        try:
+            params = SupportParams(
+                section_height_m=section_height_m,
+                circularity_max=circularity_max,
+                engaged=not no_engaged,
+            )
+        except ValueError as exc:
+            raise InputError(str(exc)) from exc
+        timings: dict[str, float] = {}
+        with output_dir(outdir, force=force) as stage:
+            t = time.perf_counter()
+            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            timings["read"] = time.perf_counter() - t
+            t = time.perf_counter()
+            seg, found, split, prepared = segment_building(
+                cloud.xyz, params, prep=BuildingParams(units=units),
+                split_attic=not no_attic, source=str(cloud_path),
+            )  # fmt: skip
+            timings["supports"] = time.perf_counter() - t
+            t = time.perf_counter()
+            seg = replace(seg, objects=_objects_frame(seg.objects, cloud))
+            write_segmentation(
+                cloud, seg, stage, step="supports",
+                parameters={"supports": asdict(params), "units": units,
+                            "split_attic": not no_attic},
+                inputs=[cloud_path], timings=timings,
+                per_object="instance" if per_object else None,
+                extra={"section_height_levelled_m": found.section_height,
+                       "spacing_m": found.spacing_m, "tilt_deg": prepared.tilt_deg,
+                       "scale_to_m": prepared.scale_to_m,
+                       "attic_limit_levelled_m": split.limit_z,
+                       "height_scores": found.height_scores},
+            )  # fmt: skip
+            timings["write"] = time.perf_counter() - t
+        n_by = seg.objects["class"].value_counts().to_dict() if len(seg.objects) else {}
+        z0 = float(cloud.offset[2])
+        rows = [
+            ("section height", f"z = {found.section_height + z0:.2f} (levelled frame)"),
+            ("columns", str(n_by.get("column", 0))),
+            ("piers", str(n_by.get("pier", 0))),
+            ("engaged columns", str(n_by.get("engaged_column", 0))),
+            ("attic", "no attic" if split.limit_z is None else f"from {split.limit_z:.2f} m"),
+            ("output", str(outdir)),
+        ]
+        _summary(f"heracles supports: {cloud_path.name}", seg, rows, timings)
