@@ -172,6 +172,38 @@ def ground_height(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.
     return z
 
 
+class _HeightGrid:
+    """:func:`ground_height` tabulated on a 0.25 m grid, read by bilinear interpolation.
+
+    Hand-written because it is four gathers: about 5x faster than evaluating the
+    hills for millions of points, and within 0.1 mm of the analytic surface
+    (the hills are smooth at this scale).
+    """
+
+    cell = 0.25
+
+    def __init__(self) -> None:
+        self.nx = int(_EXTENT_M[0] / self.cell) + 2
+        self.ny = int(_EXTENT_M[1] / self.cell) + 2
+        gx = np.arange(self.nx) * self.cell
+        gy = np.arange(self.ny) * self.cell
+        self.z = ground_height(gx[None, :], gy[:, None]).ravel()
+
+    def __call__(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Heights at points inside the survey extent."""
+        fx = np.clip(x / self.cell, 0.0, self.nx - 1.000001)
+        fy = np.clip(y / self.cell, 0.0, self.ny - 1.000001)
+        ix = fx.astype(np.intp)
+        iy = fy.astype(np.intp)
+        fx -= ix
+        fy -= iy
+        i = iy * self.nx + ix
+        z = self.z
+        bottom = z[i] + fx * (z[i + 1] - z[i])
+        top = z[i + self.nx] + fx * (z[i + self.nx + 1] - z[i + self.nx])
+        return bottom + fy * (top - bottom)
+
+
 # ----------------------------------------------------------------------------- meshes
 def _with_z(ring_xy: NDArray[np.float64], z: float | NDArray[np.float64]) -> NDArray[np.float64]:
     ring_xy = np.asarray(ring_xy, dtype=np.float64)
@@ -904,24 +936,32 @@ def kasepuhan_scene(params: ComplexSceneParams | None = None) -> ComplexScene:
     weights = np.concatenate([[ground_area], tri_w, crown_area])
     probs = weights / weights.sum()
 
+    height = _HeightGrid()
+    args = (probs, tris, owner, kind, group, nz > 0.3, crowns, height, rng)
+    vis = (raster, top_z, top_g, crown_z, pond, params, height, rng)
+    # a pilot draw measures the share of visible candidates, so one full draw suffices
+    pilot = _draw(200_000, *args)
+    share = np.count_nonzero(_visible(pilot[0], pilot[2], pilot[3], pilot[1], *vis)) / 200_000
     n_target = params.n_points
-    n_draw = int(n_target * 1.5)
-    for _attempt in range(4):  # grows the draw if occlusion removed more than expected
-        xyz, ref, gnd, crown_pt = _draw(
-            n_draw, probs, tris, owner, kind, group, nz > 0.3, crowns, rng
-        )
-        keep = _visible(xyz, gnd, crown_pt, ref, raster, top_z, top_g, crown_z, pond, params, rng)
+    n_draw = int(n_target / max(share, 0.05) * 1.02) + 1000
+    for _attempt in range(4):  # grows the draw in the unlikely case it fell short
+        xyz, ref, gnd, crown_pt = _draw(n_draw, *args)
+        keep = _visible(xyz, gnd, crown_pt, ref, *vis)
         n_keep = int(np.count_nonzero(keep))
         if n_keep >= n_target:
             break
-        n_draw = int(n_draw * 1.15 * n_target / max(n_keep, 1))
+        n_draw = int(n_draw * 1.05 * n_target / max(n_keep, 1))
     else:  # pragma: no cover - occlusion never removes that much
         raise RuntimeError("could not draw enough visible points")
 
-    sel = np.flatnonzero(keep)
-    sel = rng.permutation(rng.choice(sel, n_target, replace=False))
+    # exactly n_target visible points: drop a random few (the order is already random)
+    kept = np.flatnonzero(keep)
+    surplus = np.ones(len(kept), bool)
+    surplus[rng.choice(len(kept), len(kept) - n_target, replace=False)] = False
+    sel = kept[surplus]
     xyz = xyz[sel]
-    ref_inst, ground = ref[sel][:, 0].astype(np.int32), gnd[sel]
+    ref_inst, ground = ref[sel, 0].astype(np.int32), gnd[sel]
+    del keep, kept, surplus, ref, gnd, crown_pt
     if params.noise_m > 0:
         xyz += rng.normal(0.0, params.noise_m, xyz.shape)
 
@@ -941,58 +981,61 @@ def kasepuhan_scene(params: ComplexSceneParams | None = None) -> ComplexScene:
     return ComplexScene(cloud, layers, ref_inst, objects, ground, extent)
 
 
-def _draw(n, probs, tris, owner, kind, group, up, crowns, rng):
-    """Candidate points by source: ground, triangles, crowns.
+def _draw(n, probs, tris, owner, kind, group, up, crowns, height, rng):
+    """Candidate points from the ground, the triangles and the tree crowns, in random order.
 
-    Returns xyz, per-point (owner, kind, group) and the ground / crown masks.
+    Returns xyz, per-point (owner, kind, occlusion group, faces up) and the
+    ground / crown masks.  The order is random by construction (a shuffled
+    source sequence and shuffled triangle indices), so no large coordinate
+    array is ever permuted.
     """
     counts = rng.multinomial(n, probs)
     n_ground = int(counts[0])
     n_tri = counts[1 : 1 + len(tris)]
     n_crown = counts[1 + len(tris) :]
+    source = np.repeat(np.arange(3, dtype=np.uint8), [n_ground, n_tri.sum(), n_crown.sum()])
+    rng.shuffle(source)
+    gnd, on_tri, crown_pt = source == 0, source == 1, source == 2
+    del source
+    xyz = np.empty((n, 3))
+    info = np.zeros((n, 4), np.int32)  # owner, kind, occlusion group, faces up
     # ground
     gx = rng.uniform(0.0, _EXTENT_M[0], n_ground)
     gy = rng.uniform(0.0, _EXTENT_M[1], n_ground)
-    g_xyz = np.column_stack([gx, gy, ground_height(gx, gy)])
+    xyz[gnd] = np.column_stack([gx, gy, height(gx, gy)])
+    info[gnd] = (0, _GROUND, 0, 1)
+    del gx, gy
     # triangles
-    t_idx = np.repeat(np.arange(len(tris)), n_tri)
-    t_xyz = _sample_triangles(tris, t_idx, rng)
+    t_idx = rng.permutation(np.repeat(np.arange(len(tris), dtype=np.int32), n_tri))
+    xyz[on_tri] = _sample_triangles(tris, t_idx, rng)
+    info[on_tri] = np.column_stack([owner[t_idx], kind[t_idx], group[t_idx], up[t_idx]])
+    del t_idx
     # crowns: upper surface (z of the unit sphere uniform in [-0.3, 1] = uniform area) + interior
-    c_idx = np.repeat(np.arange(len(crowns)), n_crown)
+    c_idx = rng.permutation(np.repeat(np.arange(len(crowns)), n_crown))
     m = len(c_idx)
     uz = rng.uniform(-0.3, 1.0, m)
     phi = rng.uniform(0.0, 2 * np.pi, m)
     rad = np.where(rng.random(m) < 0.8, 1.0, np.cbrt(rng.random(m)))
     rxy = np.sqrt(1.0 - uz * uz) * rad
     c = crowns[c_idx]
-    c_xyz = np.column_stack(
+    xyz[crown_pt] = np.column_stack(
         [
             c[:, 0] + c[:, 3] * rxy * np.cos(phi),
             c[:, 1] + c[:, 3] * rxy * np.sin(phi),
             c[:, 2] + c[:, 4] * uz * rad,
         ]
     )
-    xyz = np.concatenate([g_xyz, t_xyz, c_xyz])
-    info = np.ones((len(xyz), 4), np.int32)  # owner, kind, occlusion group, faces up
-    info[:, 0] = 0
-    info[n_ground : n_ground + len(t_idx)] = np.column_stack(
-        [owner[t_idx], kind[t_idx], group[t_idx], up[t_idx]]
-    )
-    info[:n_ground, 1:3] = (_GROUND, 0)
-    info[n_ground + len(t_idx) :, 1:3] = (_TREE, -1)
-    gnd = np.zeros(len(xyz), bool)
-    gnd[:n_ground] = True
-    crown_pt = np.zeros(len(xyz), bool)
-    crown_pt[n_ground + len(t_idx) :] = True
+    info[crown_pt] = (0, _TREE, -1, 1)
     return xyz, info, gnd, crown_pt
 
 
-def _visible(xyz, gnd, crown_pt, info, raster, top_z, top_g, crown_z, pond, params, rng):
+def _visible(xyz, gnd, crown_pt, info, raster, top_z, top_g, crown_z, pond, params, height, rng):
     """Mask of candidate points a nadir/oblique survey measures."""
     x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
     keep = (x >= 0) & (x < _EXTENT_M[0]) & (y >= 0) & (y < _EXTENT_M[1])
     # nothing below the terrain (buried foundations, trunk bases)
-    keep &= gnd | (z >= ground_height(x, y) - 0.03)
+    above = np.flatnonzero(keep & ~gnd)
+    keep[above] = z[above] >= height(x[above], y[above]) - 0.03
     cells = raster.index(x, y)
     # nadir z-buffer: upward-facing points under another, higher surface are hidden
     flat = info[:, 3].astype(bool)
