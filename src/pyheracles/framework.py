@@ -76,6 +76,9 @@ class BeamParams:
     contact_m
         Largest boundary-to-boundary distance of two adjacent facets, metres;
         ``None``: 4 times the point spacing, at least 2 cm.
+    max_gap_m
+        Largest gap along the axis between two pieces of one beam face (cut by a
+        crossing beam in an X joint, or by an occlusion shadow), metres.
     min_contact_fraction
         Two facets of a beam touch along at least this fraction of the shorter one.
     surface_tolerance_m
@@ -93,6 +96,7 @@ class BeamParams:
     angle_step_deg: float = 1.0
     parallel_deg: float = 5.0
     contact_m: float | None = None
+    max_gap_m: float = 1.0
     min_contact_fraction: float = 0.4
     surface_tolerance_m: float | None = None
 
@@ -349,6 +353,31 @@ def _best_direction(
     return float(angles[ia]), float(smin[ia] + (ib + shift + 0.5) * bin_m)
 
 
+def _sharpest_direction(
+    q: NDArray[np.float64], ang0: float, half_range: float, bin_m: float
+) -> float:
+    """Direction near ``ang0`` across which the band is narrowest.
+
+    A strip tilted by ``d`` spans ``w + L |d|`` across: the robust across-extent
+    (0.5 to 99.5 % quantiles) is smallest when aligned.  Unlike PCA this is not
+    pulled by an uneven density (overlapping scans) or by a crossing beam's
+    points inside the band, and unlike a histogram sharpness it does not lock on
+    the scan-line pattern.
+    """
+    del bin_m  # the extent needs no histogram
+    angles = ang0 + np.linspace(-half_range, half_range, 81)
+    s = -q[:, :1] * np.sin(angles) + q[:, 1:] * np.cos(angles)
+    lo, hi = np.quantile(s, [0.005, 0.995], axis=0)
+    score = -(hi - lo)
+    k = int(score.argmax())
+    if 0 < k < len(angles) - 1:
+        y0, y1, y2 = score[k - 1], score[k], score[k + 1]
+        den = y0 - 2 * y1 + y2
+        frac = 0.5 * (y0 - y2) / den if den != 0 else 0.0
+        return float(angles[k] + np.clip(frac, -1, 1) * (angles[1] - angles[0]))
+    return float(angles[k])
+
+
 def split_facet(
     xyz: NDArray[np.float64],
     index: NDArray[np.int64],
@@ -409,21 +438,29 @@ def split_facet(
         ang, _ = _best_direction(q_all[sub], coarse, 2 * bin_m)
         fine = ang + np.linspace(-step, step, 21)
         ang, off = _best_direction(q_all[sub], fine, bin_m)
-        d2 = np.array([np.cos(ang), np.sin(ang)])
-        n2 = np.array([-np.sin(ang), np.cos(ang)])
-        s = q_all[live] @ n2
+        s = q_all[live] @ np.array([-np.sin(ang), np.cos(ang)])
         near = np.abs(s - off) < params.max_beam_width_m
         if near.sum() < min_pts:
             remaining[live] = False
             break
         lo, hi = _half_max_edges(s[near], bin_m)
+        # refine the direction: the sharpest across-profile of the band's points
+        in_band = (s >= lo - 1.5 * bin_m) & (s <= hi + 1.5 * bin_m)
+        cand = live[in_band]
+        if len(cand) > 6000:
+            cand = gen.choice(cand, 6000, replace=False)
+        ang = _sharpest_direction(q_all[cand], ang, np.radians(6.0), bin_m)
+        ang = _sharpest_direction(q_all[cand], ang, np.radians(0.3), bin_m)
+        d2 = np.array([np.cos(ang), np.sin(ang)])
+        n2 = np.array([-np.sin(ang), np.cos(ang)])
+        s = q_all[live] @ n2
+        off = float(np.median(s[in_band]))
+        near = np.abs(s - off) < params.max_beam_width_m
+        lo, hi = _half_max_edges(s[near], bin_m)
         width = hi - lo
         in_band = (s >= lo - 1.5 * bin_m) & (s <= hi + 1.5 * bin_m)
         band = live[in_band]
-        # refine the direction by PCA of the band's points (total least squares)
         qb = q_all[band]
-        _, evec = np.linalg.eigh(np.cov((qb - qb.mean(axis=0)).T))
-        d2 = evec[:, 1] if abs(evec[:, 1] @ d2) > 0.9 else d2
         t = qb @ d2
         order = np.argsort(t)
         gaps = np.flatnonzero(np.diff(t[order]) > max(2.0 * width, 20 * bin_m))
@@ -473,6 +510,44 @@ class _UnionFind:
             self.parent[max(ra, rb)] = min(ra, rb)
 
 
+def _pair_relation(
+    fa: StraightFacet,
+    fb: StraightFacet,
+    ta: tuple[float, float],
+    tb: tuple[float, float],
+    *,
+    cos_par: float,
+    plane_tol: float,
+    width_range: tuple[float, float],
+    max_gap: float,
+    min_overlap: float,
+) -> str | None:
+    """``"continuation"``, ``"opposite"`` or ``None`` for two parallel facets.
+
+    Continuation: the same face of one beam cut by a crossing beam (X joint) or
+    by an occlusion shadow: coplanar, same band line, similar width, separated
+    along the axis by less than ``max_gap``.  Opposite: the two parallel faces
+    of one beam: parallel planes ``width_range`` apart whose bands project on
+    each other (the thesis's paired edges) over ``min_overlap`` of the shorter.
+    """
+    if abs(fa.normal @ fb.normal) < cos_par:
+        return None
+    d = fb.centre - fa.centre
+    across = np.cross(fa.normal, fa.axis)
+    wmax = max(fa.width, fb.width)
+    if abs(fa.width - fb.width) > 0.3 * wmax or abs(d @ across) > 0.3 * wmax:
+        return None
+    sep = abs(d @ fa.normal)
+    # both intervals are along fa.axis (tb was computed on fa.axis by the caller)
+    gap = max(ta[0], tb[0]) - min(ta[1], tb[1])
+    if sep <= plane_tol and gap <= max_gap:
+        return "continuation"
+    shorter = min(ta[1] - ta[0], tb[1] - tb[0])
+    if width_range[0] <= sep <= width_range[1] and -gap >= min_overlap * shorter:
+        return "opposite"
+    return None
+
+
 def group_facets(
     xyz: NDArray[np.float64],
     facets: list[StraightFacet],
@@ -480,14 +555,22 @@ def group_facets(
     parallel_deg: float,
     contact_m: float,
     min_contact_fraction: float,
+    width_range: tuple[float, float] = (0.04, 0.6),
+    max_gap_m: float = 0.6,
 ) -> NDArray[np.int32]:
     """Join straight facets into beams.
 
-    Two facets belong to one beam when their axes are parallel within
-    ``parallel_deg`` and they touch (points of one within ``contact_m`` of the
-    other, a boundary-to-boundary distance) along at least
-    ``min_contact_fraction`` of the shorter facet.  Groups of connected facets
-    with at least two non-parallel normals are beams.
+    Two facets with axes parallel within ``parallel_deg`` belong to one beam when
+
+    - they are *adjacent faces*: points of one within ``contact_m`` of the other
+      (a boundary-to-boundary distance, not between centroids) along at least
+      ``min_contact_fraction`` of the shorter facet; or
+    - they are *opposite faces* or *continuations* of one face across a
+      crossing beam or an occlusion (see :func:`_pair_relation`).
+
+    Connected facets form a group; a group is a beam when it has at least two
+    facets and they define a cross-section (two non-parallel normals, or two
+    opposite faces).
 
     Returns
     -------
@@ -500,25 +583,49 @@ def group_facets(
     axes = np.array([f.axis for f in facets])
     cos_par = np.cos(np.radians(parallel_deg))
     trees = [cKDTree(xyz[f.index]) for f in facets]
-    lo = np.array([xyz[f.index].min(axis=0) for f in facets]) - contact_m
-    hi = np.array([xyz[f.index].max(axis=0) for f in facets]) + contact_m
+    lo = np.array([xyz[f.index].min(axis=0) for f in facets]) - max(contact_m, max_gap_m)
+    hi = np.array([xyz[f.index].max(axis=0) for f in facets]) + max(contact_m, max_gap_m)
+    plane_tol = max(3.0 * float(np.median([f.plane_rms for f in facets])), 0.01)
     uf = _UnionFind(n)
+    opposite = np.zeros((0, 2), dtype=np.int64)
+    opp_pairs: list[tuple[int, int]] = []
     for i in range(n):
         par = np.abs(axes[i + 1 :] @ axes[i]) >= cos_par
         box = np.all(lo[i + 1 :] <= hi[i], axis=1) & np.all(hi[i + 1 :] >= lo[i], axis=1)
+        ti = xyz[facets[i].index] @ axes[i]
+        int_i = (float(np.quantile(ti, 0.01)), float(np.quantile(ti, 0.99)))
         for j in np.flatnonzero(par & box) + i + 1:
+            tj = xyz[facets[j].index] @ axes[i]
+            int_j = (float(np.quantile(tj, 0.01)), float(np.quantile(tj, 0.99)))
+            rel = _pair_relation(
+                facets[i],
+                facets[j],
+                int_i,
+                int_j,
+                cos_par=cos_par,
+                plane_tol=plane_tol,
+                width_range=width_range,
+                max_gap=max_gap_m,
+                min_overlap=min_contact_fraction,
+            )
+            if rel is not None:
+                uf.union(i, j)
+                if rel == "opposite":
+                    opp_pairs.append((i, j))
+                continue
             a, b = (i, j) if len(facets[i].index) <= len(facets[j].index) else (j, i)
             pa = xyz[facets[a].index]
             dist, _ = trees[b].query(pa, k=1, distance_upper_bound=contact_m)
             touch = np.isfinite(dist)
             if touch.sum() < 10:
                 continue
-            axis = axes[a]
-            t = pa[touch] @ axis
+            t = pa[touch] @ axes[a]
             span = np.quantile(t, 0.98) - np.quantile(t, 0.02)
             shorter = min(facets[a].length, facets[b].length)
             if span >= min_contact_fraction * shorter:
                 uf.union(i, j)
+    if opp_pairs:
+        opposite = np.array(opp_pairs, dtype=np.int64)
     roots = np.array([uf.find(i) for i in range(n)])
     normals = np.array([f.normal for f in facets])
     sizes = np.array([len(f.index) for f in facets])
@@ -529,8 +636,10 @@ def group_facets(
         if len(members) < 2:
             continue
         nm = normals[members]
-        if np.abs(nm @ nm.T).min() > np.cos(np.radians(45.0)):
-            continue  # only parallel faces: no cross-section, no cuboid
+        crossed = np.abs(nm @ nm.T).min() <= np.cos(np.radians(45.0))
+        paired = bool(len(opposite)) and bool(np.any(roots[opposite[:, 0]] == r))
+        if not (crossed or paired):
+            continue  # one face only (possibly in pieces): no cross-section, no cuboid
         kept.append((int(sizes[members].sum()), int(r)))
     for rank, (_, r) in enumerate(sorted(kept, key=lambda t: (-t[0], t[1]))):
         group[roots == r] = rank + 1
@@ -565,11 +674,15 @@ def fit_beam_cuboid(
     w = np.array([len(f.index) for f in facets], dtype=float)
     m = (normals * w[:, None]).T @ normals
     ev, evec = np.linalg.eigh(m)
-    if ev[1] < 0.05 * ev.sum():
-        raise DegenerateGeometryError("the facets of this beam are all parallel")
-    axis = evec[:, 0]
-    mean_axis = np.sum([f.axis * np.sign(f.axis @ axis) * len(f.index) for f in facets], axis=0)
-    axis = axis * np.sign(axis @ mean_axis)
+    ref = facets[int(np.argmax(w))].axis
+    mean_axis = np.sum([f.axis * np.sign(f.axis @ ref) * len(f.index) for f in facets], axis=0)
+    if ev[1] >= 0.05 * ev.sum():
+        axis = evec[:, 0] * np.sign(evec[:, 0] @ mean_axis)
+    else:
+        # only parallel (opposite) faces: axis from the bands, normal to the planes
+        nrm = evec[:, 2]
+        axis = mean_axis - (mean_axis @ nrm) * nrm
+        axis /= np.linalg.norm(axis)
     # cross-section frame: the direction closer to horizontal is "width"
     big = facets[int(np.argmax(w))].normal
     u = big - (big @ axis) * axis
@@ -589,6 +702,8 @@ def fit_beam_cuboid(
             a_vals = pts @ d
         e_lo, e_hi = _half_max_edges(a_vals, bin_m)
         mid = 0.5 * (e_lo + e_hi)
+        if not across and len(offsets) >= 2:
+            mid = 0.5 * (offsets.min() + offsets.max())  # two opposite faces
         lo_faces = offsets[offsets < mid] if len(offsets) else offsets
         hi_faces = offsets[offsets >= mid] if len(offsets) else offsets
         b_lo = float(np.median(lo_faces)) if len(lo_faces) else e_lo
@@ -597,6 +712,8 @@ def fit_beam_cuboid(
     t = pts @ axis
     t_lo, t_hi = np.quantile(t, [0.005, 0.995])
     (u_lo, u_hi), (v_lo, v_hi) = bounds
+    if min(u_hi - u_lo, v_hi - v_lo) <= 0:
+        raise DegenerateGeometryError("the facets of this beam give no cross-section")
     centre = axis * 0.5 * (t_lo + t_hi) + u * 0.5 * (u_lo + u_hi) + v * 0.5 * (v_lo + v_hi)
     cub = BeamCuboid(
         centre=centre,
@@ -611,6 +728,78 @@ def fit_beam_cuboid(
     return replace(cub, rms=float(np.sqrt(np.mean(dist**2))))
 
 
+def _collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> bool:
+    """Two cuboids that are pieces of one beam cut by an X joint or a shadow."""
+    if abs(a.axis @ b.axis) < cos_par:
+        return False
+    for x, y in ((a, b), (b, a)):
+        d = y.centre - x.centre
+        if abs(d @ x.axes[:, 1]) > 0.3 * x.width or abs(d @ x.axes[:, 2]) > 0.3 * x.height:
+            return False
+    dims_a = np.sort([a.width, a.height])
+    dims_b = np.sort([b.width, b.height])
+    if np.any(np.abs(dims_a - dims_b) > np.maximum(0.25 * np.maximum(dims_a, dims_b), 0.02)):
+        return False
+    gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
+    return gap <= max_gap
+
+
+def _merge_and_absorb(
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    group: NDArray[np.int32],
+    p: BeamParams,
+    bin_m: float,
+) -> NDArray[np.int32]:
+    """Merge collinear beam pieces and absorb lone facets lying on a beam.
+
+    A beam crossed by another (X joint) or shadowed by one is seen as separate
+    pieces; their cuboids are collinear with the same cross-section, so they
+    are merged (gap at most ``max_gap_m``).  A straight facet left alone (one
+    face of a piece) joins the beam whose cuboid, extended by ``max_gap_m``
+    along its axis, it lies on.
+    """
+    n_groups = int(group.max(initial=0))
+    cubs: dict[int, BeamCuboid] = {}
+    for g in range(1, n_groups + 1):
+        try:
+            cubs[g] = fit_beam_cuboid(
+                xyz, [facets[i] for i in np.flatnonzero(group == g)], bin_m=bin_m
+            )
+        except DegenerateGeometryError:
+            continue
+    cos_par = np.cos(np.radians(p.parallel_deg))
+    ids = sorted(cubs)
+    uf = _UnionFind(n_groups + 1)
+    for i, gi in enumerate(ids):
+        for gj in ids[i + 1 :]:
+            if _collinear(cubs[gi], cubs[gj], cos_par, p.max_gap_m):
+                uf.union(gi, gj)
+    out = np.zeros(len(group), dtype=np.int32)
+    for k, g in enumerate(group):
+        if g > 0 and g in cubs:
+            out[k] = uf.find(int(g))
+    # lone facets on an (extended) beam
+    tol = max(3.0 * float(np.median([f.plane_rms for f in facets])), 0.01) if facets else 0.01
+    for k in np.flatnonzero(out == 0):
+        f = facets[k]
+        pts = xyz[f.index]
+        for g in ids:
+            c = cubs[g]
+            if abs(f.axis @ c.axis) < cos_par:
+                continue
+            longer = replace(c, length=c.length + 2 * p.max_gap_m)
+            if np.median(np.abs(longer.signed_distance(pts))) <= tol:
+                out[k] = uf.find(g)
+                break
+    # renumber 1..B by decreasing point count
+    roots = np.unique(out[out > 0])
+    sizes = [sum(len(facets[k].index) for k in np.flatnonzero(out == r)) for r in roots]
+    order = [int(r) for _, r in sorted(zip(sizes, roots, strict=True), key=lambda t: (-t[0], t[1]))]
+    remap = {r: i + 1 for i, r in enumerate(order)}
+    return np.array([remap.get(int(g), 0) for g in out], dtype=np.int32)
+
+
 # ----------------------------------------------------------------------------- pipeline
 def _assign_to_cuboids(
     xyz: NDArray[np.float64], tree: cKDTree, beams: list[BeamCuboid], tol: float
@@ -619,8 +808,7 @@ def _assign_to_cuboids(
     best = np.full(len(xyz), np.inf)
     labels = np.zeros(len(xyz), dtype=np.int32)
     for i, b in enumerate(beams):
-        radius = float(np.linalg.norm(b.half_extents)) + tol
-        cand = np.asarray(tree.query_ball_point(b.centre, radius, workers=-1), dtype=np.int64)
+        cand = _candidates(xyz, b, tol)
         if len(cand) == 0:
             continue
         d = np.abs(b.signed_distance(xyz[cand]))
@@ -628,6 +816,71 @@ def _assign_to_cuboids(
         best[cand[better]] = d[better]
         labels[cand[better]] = i + 1
     return labels
+
+
+def _candidates(xyz: NDArray[np.float64], cub: BeamCuboid, margin: float) -> NDArray[np.int64]:
+    """Indices of the points in the cuboid's axis-aligned bounding box + margin.
+
+    A vectorised box test over all points is cheaper than a KD-tree ball query
+    for long beams (the ball around a 6 m beam holds most of a roof).
+    """
+    corners = cub.corners()
+    lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
+    inside = np.all((xyz >= lo) & (xyz <= hi), axis=1)
+    return np.flatnonzero(inside)
+
+
+def _lateral_face_normals(cub: BeamCuboid, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Normal of the nearest lateral (long) face of the cuboid for every point."""
+    local = (pts - cub.centre) @ cub.axes
+    gap_w = cub.width / 2 - np.abs(local[:, 1])
+    gap_h = cub.height / 2 - np.abs(local[:, 2])
+    use_w = np.abs(gap_w) < np.abs(gap_h)
+    return np.where(use_w[:, None], cub.axes[:, 1], cub.axes[:, 2])
+
+
+def _extend_along_axis(
+    xyz: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    free: NDArray[np.bool_],
+    cub: BeamCuboid,
+    tol: float,
+    max_gap: float,
+    spacing: float,
+    cos_normal: float,
+) -> BeamCuboid:
+    """Lengthen a cuboid over the points that continue its faces past its ends.
+
+    Short beam ends (overhangs, the part beyond a crossing beam) often give no
+    straight facet of their own; their points lie on the beam's extended long
+    faces, with the face's normal.  The cuboid grows over such points (not
+    claimed by another beam's facets) while they are contiguous (gaps below
+    ``max_gap / 2``, the size of a crossing beam); the cross-section is kept.
+    """
+    longer = replace(cub, length=cub.length + 2 * max_gap)
+    cand = _candidates(xyz, longer, tol)
+    cand = cand[free[cand]]
+    if len(cand) == 0:
+        return cub
+    pts = xyz[cand]
+    on = np.abs(longer.signed_distance(pts)) <= tol
+    face_n = _lateral_face_normals(cub, pts)
+    on &= np.abs(np.einsum("ij,ij->i", normals[cand], face_n)) >= cos_normal
+    t = (pts[on] - cub.centre) @ cub.axis
+    half = 0.5 * cub.length
+    step = max(0.5 * max_gap, 10 * spacing)
+    ends = []
+    for sign in (1.0, -1.0):
+        beyond = np.sort(sign * t[sign * t > half - tol])
+        end = half
+        if len(beyond) >= 20:
+            jumps = np.flatnonzero(np.diff(np.concatenate([[half], beyond])) > step)
+            run = beyond[: jumps[0]] if len(jumps) else beyond
+            if len(run) >= 20:
+                end = max(half, float(np.quantile(run, 0.995)))
+        ends.append(end)
+    hi, lo = ends[0], -ends[1]
+    return replace(cub, centre=cub.centre + cub.axis * 0.5 * (hi + lo), length=float(hi - lo))
 
 
 def segment_beams(
@@ -711,23 +964,45 @@ def segment_beams(
         parallel_deg=p.parallel_deg,
         contact_m=contact,
         min_contact_fraction=p.min_contact_fraction,
+        width_range=(p.min_beam_width_m, p.max_beam_width_m),
+        max_gap_m=p.max_gap_m,
     )
     timings["group"] = time.perf_counter() - t2
     t3 = time.perf_counter()
+    bin_m = max(spacing, 0.004)
+    facet_beam = _merge_and_absorb(arr, facets, group, p, bin_m)
     cuboids: list[BeamCuboid] = []
-    facet_beam = np.zeros(len(facets), dtype=np.int32)
-    for g in range(1, int(group.max(initial=0)) + 1):
-        members = [facets[i] for i in np.flatnonzero(group == g)]
+    final = np.zeros(len(facets), dtype=np.int32)
+    for g in range(1, int(facet_beam.max(initial=0)) + 1):
+        members = [facets[i] for i in np.flatnonzero(facet_beam == g)]
         try:
-            cub = fit_beam_cuboid(arr, members, bin_m=max(spacing, 0.004))
+            cub = fit_beam_cuboid(arr, members, bin_m=bin_m)
         except DegenerateGeometryError:
             continue
         cuboids.append(cub)
-        facet_beam[group == g] = len(cuboids)
+        final[facet_beam == g] = len(cuboids)
+    facet_beam = final
     rms = [f.plane_rms for f, g in zip(facets, facet_beam, strict=True) if g > 0]
     tol = p.surface_tolerance_m
     if tol is None:
         tol = max(3.0 * float(np.median(rms)) if rms else 0.0, 0.01)
+    claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
+    for f, g in zip(facets, facet_beam, strict=True):
+        claimed[f.index] = g
+    cos_n = np.cos(np.radians(regions.params.angle_deg or 15.0))
+    cuboids = [
+        _extend_along_axis(
+            arr,
+            regions.normals,
+            (claimed == 0) | (claimed == i + 1),
+            c,
+            tol,
+            p.max_gap_m,
+            spacing,
+            cos_n,
+        )
+        for i, c in enumerate(cuboids)
+    ]
     labels = _assign_to_cuboids(arr, tree, cuboids, tol)
     timings["cuboids"] = time.perf_counter() - t3
     straight = np.zeros(len(arr), dtype=np.int32)
