@@ -277,21 +277,35 @@ def attic_split(
     p = np.asarray(xyz, dtype=np.float64)
     prof = slice_profile(p, params.slices(), z_order=z_order)
     none = AtticSplit(np.zeros(len(p), dtype=bool), None, prof)
-    a = prof.areas
-    if len(a) < 3:
-        return AtticSplit(none.attic, None, prof, ("too few slices for an attic search",))
-    start = int(np.argmax(a > 0)) if (a > 0).any() else len(a)
-    brk = None
-    for i in range(start, len(a) - 1):  # loop over slices
-        ref = max(a[i], a[i + 1], 1e-12)
-        if abs(a[i + 1] - a[i]) / ref > params.area_change:
-            if prof.heights[i] - prof.heights[start] >= params.min_body_height_m:
+    # empty slices (a gap in the data, an open storey) are skipped, not read as a change
+    valid = np.flatnonzero((prof.counts >= 3) & (prof.areas > 0))
+    notes: tuple[str, ...] = ()
+    n_empty = int(np.count_nonzero(prof.counts < 3))
+    if n_empty:
+        notes = (f"{n_empty} of {len(prof.counts)} slices are empty (gaps in the data)",)
+    if len(valid) < 3:
+        return AtticSplit(none.attic, None, prof, (*notes, "too few slices for an attic search"))
+    a = prof.areas[valid]
+    hts = prof.heights[valid]
+
+    def changed(k: int, ref: float) -> bool:
+        return abs(a[k] - ref) / max(a[k], ref, 1e-12) > params.area_change
+
+    # Going up, the body is a run of slices whose area stays within the tolerance of the
+    # run's median; the attic starts at the first slice that leaves it and whose next
+    # slice also does (a single noisy slice is not an attic).
+    start, brk = 0, None
+    for i in range(len(a) - 1):  # loop over slices
+        ref = float(np.median(a[start : i + 1]))
+        if changed(i + 1, ref) and (i + 2 >= len(a) or changed(i + 2, ref)):
+            if hts[i] - hts[start] >= params.min_body_height_m:
                 brk = i
                 break
             start = i + 1
     if brk is None:
-        return none
-    h0, h1 = prof.heights[brk], prof.heights[brk + 1]
+        return AtticSplit(none.attic, None, prof, notes)
+    h0, h1 = hts[brk], hts[brk + 1]
+    widening = a[brk + 1] > a[brk]
     half = params.thickness_m / 2
     z = p[:, 2]
     gap = np.flatnonzero((z >= h0 - half) & (z <= h1 + half))
@@ -304,7 +318,6 @@ def attic_split(
             return None
         return MplPath(p[sel, :2][hull.vertices])
 
-    widening = a[brk + 1] > a[brk]
     limit = (h0 + h1) / 2
     if widening:
         path = hull_path(h0)
@@ -324,9 +337,9 @@ def attic_split(
             np.zeros(len(p), dtype=bool),
             None,
             prof,
-            (f"the part above z = {limit:.2f} m is too small to be an attic",),
+            (*notes, f"the part above z = {limit:.2f} m is too small to be an attic"),
         )
-    return AtticSplit(attic, float(limit), prof)
+    return AtticSplit(attic, float(limit), prof, notes)
 
 
 # ------------------------------------------------------------------------------ segmentation

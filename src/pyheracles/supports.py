@@ -301,12 +301,13 @@ def section_islands(
             size = np.ptp(uv, axis=0)
             angle = float(np.arctan2(vec[1, 1], vec[0, 1]))
         length, width = float(size[0]), float(size[1])
+        elongated = length > params.wall_min_aspect * max(width, 1e-6)
         if length < params.min_support_size_m:
             kind = "noise"
-        elif length > params.max_support_size_m or (
-            length > 1.0 and length > params.wall_min_aspect * max(width, 1e-6)
-        ):
+        elif length > params.max_support_size_m or (length > 1.0 and elongated):
             kind = "wall"
+        elif elongated or width < 0.5 * params.min_support_size_m:
+            kind = "noise"  # a short straight piece: a wall fragment, a board, a railing
         else:
             kind = "support"
         circ, c_rms, r_rms, radius = nan, nan, nan, nan
@@ -338,19 +339,26 @@ def _choose_height(
     z_lo: float,
     z_hi: float,
 ) -> tuple[float, list[tuple[float, int]]]:
-    """Automatic section height: middle of the longest run with the most persistent islands."""
-    cands = np.arange(z_lo, z_hi + 1e-9, params.candidate_step_m)
+    """Automatic section height: middle of the longest run with the most persistent islands.
+
+    An island is persistent at a height when an island of about the same size is found at
+    the same place ``persistence_m`` above and below.
+    """
+    k_off = max(1, round(params.persistence_m / params.candidate_step_m))
+    step = params.candidate_step_m
+    cands = np.arange(z_lo - k_off * step, z_hi + k_off * step + 1e-9, step)
     if len(cands) == 0:
         return (z_lo + z_hi) / 2, []
     centres: list[Array] = []
+    sizes: list[Array] = []
     for h in cands:
         s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2])
         # one point per (distance / 2) cell keeps every link of the clustering
         xy = _thin2d(xyz[order[s:e], :2], distance / 2)
         isl = section_islands(xy, params, distance, with_shapes=False)
-        sup = [i.center for i in isl if i.kind == "support"]
-        centres.append(np.array(sup).reshape(-1, 2))
-    k_off = max(1, round(params.persistence_m / params.candidate_step_m))
+        sup = [i for i in isl if i.kind == "support"]
+        centres.append(np.array([i.center for i in sup]).reshape(-1, 2))
+        sizes.append(np.array([float(i.size[0]) for i in sup]))
     trees = [cKDTree(c) if len(c) else None for c in centres]
     score = np.zeros(len(cands), dtype=int)
     for k, c in enumerate(centres):
@@ -358,12 +366,16 @@ def _choose_height(
             continue
         ok = np.ones(len(c), dtype=bool)
         for j in (k - k_off, k + k_off):
-            if 0 <= j < len(cands):
+            if not 0 <= j < len(cands):
+                ok[:] = False  # persistence cannot be checked at the ends of the range
+            else:
                 if trees[j] is None:
                     ok[:] = False
                 else:
-                    d, _ = trees[j].query(c)
-                    ok &= d <= 0.15
+                    # same place and same size: a vault or a capital widens with height
+                    d, nb = trees[j].query(c)
+                    same = np.abs(sizes[j][np.minimum(nb, len(sizes[j]) - 1)] - sizes[k])
+                    ok &= (d <= 0.15) & (same <= 0.2 * sizes[k] + 2 * distance)
         score[k] = int(ok.sum())
     best = score.max()
     # longest run of heights with the best score
