@@ -133,6 +133,20 @@ def test_key_matching_merges_instances_and_reports_unmatched():
     assert ev.unmatched["n_points"].tolist() == [4]
 
 
+def test_key_matching_unkeyed_predictions_and_duplicate_keys():
+    pred = np.select([REF == 1, REF == 2], [10, 11], 0)
+    pred[np.flatnonzero(REF == 0)[:3]] = 12
+    ev = evaluate_objects(
+        pred, REF, match="key", predicted_keys={10: "a", 11: None}, reference_keys={1: "a", 2: "b"}
+    )
+    assert _row(ev, 1)["f1"] == 1.0
+    assert _row(ev, 2)["predicted"] == () and _row(ev, 2)["n_unclassified"] == 0
+    assert sorted(ev.unmatched["n_points"]) == [3, 30]  # 11 (no key) and 12 (not listed)
+    assert ev.unmatched["key"].isna().all()
+    with pytest.raises(InputError, match="share the key"):
+        evaluate_objects(pred, REF, match="key", predicted_keys={}, reference_keys={1: 1, 2: 1})
+
+
 def test_reference_objects_without_points():
     objects = pd.DataFrame({"instance": [1, 2, 3, 4], "name": ["a", "b", "c", "gone"]})
     ev = evaluate_objects(REF, REF, reference_objects=objects)

@@ -176,8 +176,9 @@ def _key_map(keys: Mapping[int, Hashable] | pd.Series | None, what: str) -> dict
             f"matching by key needs the {what} keys",
             hint=f"pass {what}_keys (instance id -> key), e.g. from the objects table",
         )
-    items = keys.items()
-    return {int(k): v for k, v in items if not (isinstance(v, float) and np.isnan(v))}
+    return {
+        int(k): v for k, v in keys.items() if not (np.isscalar(v) and pd.isna(v)) and v is not None
+    }
 
 
 def _contingency(
@@ -254,10 +255,23 @@ def evaluate_objects(
     if match == "key":
         pkeys = _key_map(predicted_keys, "predicted")
         rkeys = _key_map(reference_keys, "reference")
-        # merge predicted instances by key: code every key to one group id
+        seen: dict[Hashable, int] = {}
+        for inst, key in rkeys.items():
+            if key in seen:
+                raise InputError(
+                    f"reference objects {seen[key]} and {inst} share the key {key!r}",
+                    hint="match by a key that is unique in the reference (e.g. the feature id)",
+                )
+            seen[key] = inst
+        # merge predicted instances by key: code every key to one group id; predicted
+        # objects without a key stay objects of their own (never paired)
         key_ids: dict[Hashable, int] = {}
         for key in list(rkeys.values()) + list(pkeys.values()):
             key_ids.setdefault(key, len(key_ids) + 1)
+        for inst in np.unique(pred[pred > 0]).tolist():
+            if inst not in pkeys:
+                pkeys[inst] = ("<no key>", inst)
+                key_ids[pkeys[inst]] = len(key_ids) + 1
         lut = np.zeros(int(pred.max(initial=0)) + 1, np.int64)
         for inst, key in pkeys.items():
             if inst < len(lut):
@@ -361,7 +375,7 @@ def evaluate_objects(
     )
     if match == "key":
         inv = {v: k for k, v in key_ids.items()}
-        unmatched["key"] = [inv.get(p) for p in un]
+        unmatched["key"] = [None if isinstance(inv.get(p), tuple) else inv.get(p) for p in un]
     return ObjectEvaluation(objects=objects, unmatched=unmatched, match=match)
 
 
