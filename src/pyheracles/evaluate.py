@@ -100,8 +100,9 @@ class ObjectEvaluation:
             "fn",
             *SCORE_COLUMNS,
         ]
-        if "name" in rows:
-            cols.insert(1, "name")
+        for extra in ("name", "layer"):  # descriptive columns of the reference table
+            if extra in rows:
+                cols.insert(1, extra)
         body = rows[cols]
         summary = self.summary().reset_index(names="object")
         out = pd.concat([body, summary], ignore_index=True)

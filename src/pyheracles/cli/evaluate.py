@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
+import pandas as pd
 import typer
 
 __all__ = ["register"]
@@ -97,7 +98,7 @@ def _labels_field(cloud: Any, field: str | None, candidates: tuple[str, ...], pa
 
 
 def _fmt(v: Any, pct: bool = False) -> str:
-    if v is None or (isinstance(v, float) and np.isnan(v)):
+    if v is None or v is pd.NA or (isinstance(v, float) and np.isnan(v)):
         return "-"
     if isinstance(v, float | np.floating):
         return f"{v:.1f}" if pct else f"{v:.3f}"
@@ -255,21 +256,28 @@ def register(app: typer.Typer) -> None:
         json_path = atomic_write_json(outdir / "evaluation.json", payload)
 
         show = Table(title=f"Per-object scores ({ev.match} matching)")
-        for col in ("object", "n ref", "n pred", "precision", "recall", "F1", "% uncl."):
-            show.add_column(col, justify="left" if col == "object" else "right")
+        wide = console.width >= 110  # names only when the terminal has room
+        text_cols = [
+            c for c in ("object", "name") if c in table.columns and (wide or c == "object")
+        ]
+        for col in text_cols:
+            show.add_column(col, overflow="ellipsis", no_wrap=True, max_width=22)
+        for col in ("n ref", "n pred", "prec.", "recall", "F1", "uncl.%"):
+            show.add_column(col, justify="right", no_wrap=True, min_width=6)
         body = table.iloc[:-2]
         for _, r in body.head(rows).iterrows():
             show.add_row(
-                str(r["object"]), str(r["n_reference"]), str(r["n_predicted"]),
+                *[_fmt(r[c]) for c in text_cols], str(r["n_reference"]), str(r["n_predicted"]),
                 _fmt(r["precision"]), _fmt(r["recall"]), _fmt(r["f1"]),
                 _fmt(r["unclassified_pct"], pct=True),
             )  # fmt: skip
+        blanks = [""] * (len(text_cols) + 5)
         if len(body) > rows:
-            show.add_row(f"... {len(body) - rows} more in CSV", "", "", "", "", "", "")
+            show.add_row(f"+{len(body) - rows} in CSV", *blanks)
         for _, r in table.iloc[-2:].iterrows():
             show.add_row(
-                f"[bold]{r['object']}[/]", "", "", _fmt(r["precision"]), _fmt(r["recall"]),
-                _fmt(r["f1"]), _fmt(r["unclassified_pct"], pct=True),
+                f"[bold]{r['object']}[/]", *[""] * (len(text_cols) + 1), _fmt(r["precision"]),
+                _fmt(r["recall"]), _fmt(r["f1"]), _fmt(r["unclassified_pct"], pct=True),
             )  # fmt: skip
         console.print(show)
         totals = ev.totals()
