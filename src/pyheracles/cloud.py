@@ -36,8 +36,9 @@ class PointCloud:
         Named per-point arrays of length N (``intensity``, ``classification``,
         ``red`` ...), kept in input order.
     crs
-        Coordinate reference system (:class:`pyproj.CRS`) or ``None`` when
-        unknown / local.
+        Coordinate reference system (:class:`pyproj.CRS`, or anything
+        ``CRS.from_user_input`` takes, such as ``"EPSG:28992"``) or ``None``
+        when unknown / local.
     scale
         ``(3,)`` quantisation step of the source file (LAS scale), metres; used
         when writing back so that coordinates round-trip exactly.  ``None``
@@ -78,6 +79,13 @@ class PointCloud:
                     path=self.source,
                 )
         object.__setattr__(self, "attributes", attrs)
+        if self.crs is not None and not hasattr(self.crs, "to_wkt"):
+            from pyproj import CRS
+
+            try:
+                object.__setattr__(self, "crs", CRS.from_user_input(self.crs))
+            except Exception as exc:  # pyproj raises CRSError and others
+                raise InputError(f"not a coordinate reference system: {self.crs!r}") from exc
 
     # ------------------------------------------------------------------ construction
     @classmethod

@@ -205,6 +205,7 @@ def prepare_layers(
     """
     if not layers:
         raise InputError("no GIS layer given", hint="add at least one --layer NAME=PATH")
+    cloud.validate(what="complex point cloud")
     lo, hi = cloud.bounds()[:, :2]
     cloud_box = shapely.box(lo[0], lo[1], hi[0], hi[1])
     out: dict[str, gpd.GeoDataFrame] = {}
@@ -268,7 +269,7 @@ class _GridIndex:
 def _claims(
     geoms: NDArray[Any],
     buffer_m: float,
-    xy: NDArray[np.float64],
+    xy: NDArray[np.float64],  # (N, 3): XY for the tests, Z for party-wall ties
     index: _GridIndex,
     pool: NDArray[np.bool_],
     inside_any: NDArray[np.bool_],
@@ -280,8 +281,12 @@ def _claims(
     goes to the one containing it, else to the nearest.  The buffer ring of a
     polygon never takes a point that lies inside another polygon of any
     layer (a wall's buffer must not eat the roof of the house beside it).
+    A point on the shared edge of two polygons (a party wall) goes to the
+    building whose roof is the lowest one above it: the upper part of a
+    taller neighbour's facade is that neighbour's.
     """
     pts_all, poly_all, dist_all = [], [], []
+    roof_z = np.full(len(geoms), np.inf)
     buffered = shapely.buffer(geoms, buffer_m)
     shapely.prepare(buffered)
     shapely.prepare(geoms)
@@ -299,6 +304,8 @@ def _claims(
         inside = shapely.contains_xy(geoms[k], x, y)
         ok = inside | ~inside_any[cand]
         cand, inside, x, y = cand[ok], inside[ok], x[ok], y[ok]
+        if inside.any():
+            roof_z[k] = float(np.percentile(xy[cand[inside], 2], 95))
         dist = np.zeros(len(cand))
         ring = ~inside
         if ring.any():
@@ -312,7 +319,11 @@ def _claims(
     pts = np.concatenate(pts_all)
     poly = np.concatenate(poly_all)
     dist = np.concatenate(dist_all)
-    order = np.lexsort((poly, dist, pts))  # by point, then distance, then polygon
+    # tie-break for points at the same distance (on a shared edge): the gap
+    # between the point and the polygon's roof, negative gaps (above the roof) last
+    gap = roof_z[poly] - xy[pts, 2]
+    gap = np.where(gap >= -0.1, gap, 1e9 - gap)
+    order = np.lexsort((poly, gap, dist, pts))  # by point, distance, roof gap, polygon
     pts, poly, dist = pts[order], poly[order], dist[order]
     first = np.ones(len(pts), dtype=bool)
     first[1:] = pts[1:] != pts[:-1]
@@ -380,7 +391,8 @@ def _object_points(
     if core.sum() == 0:
         return keep
     labels = _cluster(xyz[cand[core]], params)
-    keep[core] = _select_clusters(labels, cand_in[core], params)
+    near_poly = cand_dist <= 0.5 * float(params.buffer_m)  # type: ignore[arg-type]
+    keep[core] = _select_clusters(labels, cand_in[core], near_poly[core], params)
     loose = np.flatnonzero(scattered)
     if keep.any() and len(loose):
         from scipy.spatial import cKDTree
@@ -398,8 +410,7 @@ def _object_points(
         # a thin wall); a crown rooted outside does not.
         sub = _cluster(xyz[cand[loose]], params)
         n = np.bincount(sub)
-        near_poly = cand_dist[loose] <= 0.5 * float(params.buffer_m)  # type: ignore[arg-type]
-        n_in = np.bincount(sub, weights=near_poly.astype(np.float64), minlength=len(n))
+        n_in = np.bincount(sub, weights=near_poly[loose].astype(np.float64), minlength=len(n))
         touching = np.bincount(sub, weights=near.astype(np.float64), minlength=len(n)) > 0
         whole = touching & (n_in >= 0.5 * np.maximum(n, 1))
         keep[loose[near | whole[sub]]] = True
@@ -407,22 +418,27 @@ def _object_points(
 
 
 def _select_clusters(
-    labels: NDArray[np.int32], inside: NDArray[np.bool_], params: ComplexParams
+    labels: NDArray[np.int32],
+    inside: NDArray[np.bool_],
+    near: NDArray[np.bool_],
+    params: ComplexParams,
 ) -> NDArray[np.bool_]:
     """Mask of the points in the clusters that belong to the polygon's feature.
 
     Kept: the cluster with most points inside the polygon; every cluster that
-    lies mostly (>= 50 %) inside it, however small (a chimney, a few facade
-    points: inside a footprint, above the ground, they are the building);
-    every cluster with at least ``min_cluster_points`` inside and an inside
-    fraction >= ``keep_fraction``.
+    lies mostly (>= 50 %) within half a buffer of it (``near``), however
+    small (a chimney, sparse facade points, the far side of a thin wall
+    digitised off its axis); every cluster with at least
+    ``min_cluster_points`` inside and an inside fraction >= ``keep_fraction``.
     """
     if len(labels) == 0:
         return np.zeros(0, dtype=bool)
     n = np.bincount(labels)
     n_in = np.bincount(labels, weights=inside.astype(np.float64), minlength=len(n))
+    n_near = np.bincount(labels, weights=near.astype(np.float64), minlength=len(n))
     frac = np.divide(n_in, n, out=np.zeros(len(n)), where=n > 0)
-    keep = (frac >= 0.5) | ((n_in >= params.min_cluster_points) & (frac >= params.keep_fraction))
+    keep = (n_near >= 0.5 * n) & (n > 0)
+    keep |= (n_in >= params.min_cluster_points) & (frac >= params.keep_fraction)
     best = int(np.argmax(n_in))
     keep[best] = True
     return keep[labels]
