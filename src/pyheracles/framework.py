@@ -75,7 +75,9 @@ class BeamParams:
         Largest angle between the axes of two facets of one beam, degrees.
     contact_m
         Largest boundary-to-boundary distance of two adjacent facets, metres;
-        ``None``: 4 times the point spacing, at least 2 cm.
+        ``None``: twice the median k-neighbourhood radius (the band along an
+        edge where normals are blended and points may stay unassigned), at
+        least 4 times the point spacing and 2 cm.
     max_gap_m
         Largest gap along the axis between two pieces of one beam face (cut by a
         crossing beam in an X joint, or by an occlusion shadow), metres.
@@ -957,7 +959,11 @@ def segment_beams(
         facets.extend(split_facet(arr, idx, p, spacing_m=spacing, parent=r, rng=gen))
     timings["split"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    contact = p.contact_m if p.contact_m is not None else max(4.0 * spacing, 0.02)
+    contact = p.contact_m
+    if contact is None:
+        sample = arr[:: max(1, len(arr) // 20000)]
+        r_k = float(np.median(tree.query(sample, k=p.region.k, workers=-1)[0][:, -1]))
+        contact = max(2.0 * r_k, 4.0 * spacing, 0.02)
     group = group_facets(
         arr,
         facets,
