@@ -256,7 +256,14 @@ def _rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[floa
     )
     mid = (lo + hi) / 2
     new_centre = centre + mid[0] * np.array([c, s]) + mid[1] * np.array([-s, c])
-    return float(np.sqrt(np.mean(d.min(axis=1) ** 2))), np.r_[new_centre, hi - lo]
+    return _trimmed_rms(d.min(axis=1)), np.r_[new_centre, hi - lo]
+
+
+def _trimmed_rms(residuals: Array, keep: float = 0.9) -> float:
+    """RMS of the ``keep`` fraction of smallest residuals: a fence bar or a chair leg
+    touching an island does not decide whether it is round or rectangular."""
+    r = np.sort(np.abs(residuals))
+    return float(np.sqrt(np.mean(r[: max(1, int(keep * len(r)))] ** 2)))
 
 
 def section_islands(
@@ -316,7 +323,7 @@ def section_islands(
             circle = fit_circle(p)
             r_rms, rect = _rect_rms(p, centre, angle, size.copy())
             if circle and circle.radius < length:
-                c_rms = circle.rms
+                c_rms = _trimmed_rms(circle.residuals(p))
             if circle and c_rms < r_rms and (circ <= params.circularity_max or c_rms < 0.5 * r_rms):
                 kind, centre, radius = "column", circle.center, circle.radius
             else:
@@ -377,12 +384,17 @@ def _choose_height(
                     same = np.abs(sizes[j][np.minimum(nb, len(sizes[j]) - 1)] - sizes[k])
                     ok &= (d <= 0.15) & (same <= 0.2 * sizes[k] + 2 * distance)
         score[k] = int(ok.sum())
-    best = score.max()
-    # longest run of heights with the best score
-    is_best = np.r_[False, score == best, False]
-    edges = np.flatnonzero(np.diff(is_best.astype(int)))
-    starts, ends = edges[::2], edges[1::2]
-    r = int(np.argmax(ends - starts))
+    # The highest island count that holds over a run of at least min_run heights (a
+    # single height with one island more is clutter, not a better section); the middle
+    # of the longest such run.
+    min_run = max(1, min(3, int(np.count_nonzero(score == score.max()) > 0) * 3))
+    for level in range(int(score.max()), -1, -1):
+        is_best = np.r_[False, score >= level, False]
+        edges = np.flatnonzero(np.diff(is_best.astype(int)))
+        starts, ends = edges[::2], edges[1::2]
+        r = int(np.argmax(ends - starts))
+        if ends[r] - starts[r] >= min_run or level == 0:
+            break
     mid = (starts[r] + ends[r] - 1) / 2
     height = float(np.interp(mid, np.arange(len(cands)), cands))
     return height, list(zip(cands.tolist(), score.tolist(), strict=True))
