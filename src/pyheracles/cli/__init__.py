@@ -24,6 +24,7 @@ COMMAND_MODULES: list[str] = [
     "complex",
     "demo",
     "evaluate",
+    "framework",
     "ground",
 ]
 
