@@ -93,53 +93,53 @@ def register(app: typer.Typer) -> None:
 
         if method not in ("auto", "csf", "smrf"):
             raise InputError(f"unknown --method {method!r}; expected one of auto, csf, smrf")
-        output_dir(outdir, force=force)
-        timings: dict[str, float] = {}
-        t = time.perf_counter()
-        cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
-        timings["read"] = time.perf_counter() - t
+        with output_dir(outdir, force=force) as stage:
+            timings: dict[str, float] = {}
+            t = time.perf_counter()
+            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            timings["read"] = time.perf_counter() - t
 
-        t = time.perf_counter()
-        result = extract_ground(
-            cloud.xyz, method, max_object_size_m=max_object_size_m, dtm_cell_m=dtm_cell_m
-        )
-        timings["ground"] = time.perf_counter() - t
+            t = time.perf_counter()
+            result = extract_ground(
+                cloud.xyz, method, max_object_size_m=max_object_size_m, dtm_cell_m=dtm_cell_m
+            )
+            timings["ground"] = time.perf_counter() - t
 
-        t = time.perf_counter()
-        old = cloud.attributes.get("classification")
-        classification = (
-            np.ones(len(cloud), np.uint8) if old is None else np.asarray(old, np.uint8).copy()
-        )
-        classification[classification == 2] = 1
-        classification[result.mask] = 2
-        extra: dict[str, np.ndarray] = {"classification": classification}
-        if result.dtm is not None:
-            extra["height_above_ground"] = height_above_ground(cloud.xyz, result.dtm).astype(
-                np.float32
+            t = time.perf_counter()
+            old = cloud.attributes.get("classification")
+            classification = (
+                np.ones(len(cloud), np.uint8) if old is None else np.asarray(old, np.uint8).copy()
             )
-        cloud_out = write_cloud(cloud, outdir / "ground.laz", extra_dims=extra)
-        outputs = {"cloud": str(cloud_out)}
-        if result.dtm is not None:
-            dtm_out = write_dtm_geotiff(
-                result.dtm, outdir / "dtm.tif", offset=cloud.offset, crs=cloud.crs
+            classification[classification == 2] = 1
+            classification[result.mask] = 2
+            extra: dict[str, np.ndarray] = {"classification": classification}
+            if result.dtm is not None:
+                extra["height_above_ground"] = height_above_ground(cloud.xyz, result.dtm).astype(
+                    np.float32
+                )
+            cloud_out = write_cloud(cloud, stage / "ground.laz", extra_dims=extra)
+            outputs = {"cloud": str(outdir / cloud_out.name)}
+            if result.dtm is not None:
+                dtm_out = write_dtm_geotiff(
+                    result.dtm, stage / "dtm.tif", offset=cloud.offset, crs=cloud.crs
+                )
+                outputs["dtm"] = str(outdir / dtm_out.name)
+            timings["write"] = time.perf_counter() - t
+            counts = result.counts()
+            write_run_json(
+                stage,
+                step="ground",
+                parameters={"method": method, "params": result.params},
+                inputs=[cloud_path],
+                timings=timings,
+                counts=counts,
+                extra={
+                    "scene": result.scene,
+                    "note": result.note,
+                    "outputs": outputs,
+                    "dtm_cell_m": None if result.dtm is None else result.dtm.cell_m,
+                },
             )
-            outputs["dtm"] = str(dtm_out)
-        timings["write"] = time.perf_counter() - t
-        counts = result.counts()
-        write_run_json(
-            outdir,
-            step="ground",
-            parameters={"method": method, "ran": result.method, "params": result.params},
-            inputs=[cloud_path],
-            timings=timings,
-            counts=counts,
-            extra={
-                "scene": result.scene,
-                "note": result.note,
-                "outputs": outputs,
-                "dtm_cell_m": None if result.dtm is None else result.dtm.cell_m,
-            },
-        )
 
         table = Table(title=f"heracles ground: {cloud_path.name}")
         table.add_column("item")

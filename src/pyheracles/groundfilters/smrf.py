@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from pyheracles.errors import InputError
-from pyheracles.groundfilters.surface import DTM, Grid, inpaint, rasterise, sample_raster
+from pyheracles.groundfilters.surface import DTM, Grid, RasterSampler, inpaint, rasterise
 
 __all__ = ["SMRFParams", "smrf"]
 
@@ -160,7 +160,8 @@ def smrf(
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
     provisional = DTM(inpaint(np.where(keep, zmin, np.nan)), grid, keep)
-    ground_z = sample_raster(grid, provisional.z_m, xy)
-    dtm_slope = sample_raster(grid, provisional.slope(), xy)
+    sample = RasterSampler(grid, xy)
+    ground_z = sample(provisional.z_m)
+    dtm_slope = sample(provisional.slope())
     mask = np.abs(xyz[:, 2] - ground_z) <= p.threshold_m + p.scalar * dtm_slope
     return mask, provisional

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage, sparse
+from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from pyheracles.errors import InputError
@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "DTM",
     "Grid",
+    "RasterSampler",
     "dtm_from_ground",
     "height_above_ground",
     "inpaint",
@@ -102,15 +103,8 @@ def rasterise(
     return out.reshape(grid.shape)
 
 
-def sample_raster(
-    grid: Grid, values: NDArray[np.float64], xy: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Bilinear value of a raster at points ``xy`` (N, 2), extrapolated linearly at the edges.
-
-    Between cell centres the raster is interpolated bilinearly; in the outer half cell
-    (and beyond) it is extrapolated linearly from the two outermost cells, so a plane is
-    reproduced exactly everywhere (``mode="nearest"`` alone would flatten it there).
-    """
+def _pad_linear(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Pad a raster by one cell on each side, extrapolating linearly from the edge cells."""
     padded = np.pad(values, 1, mode="edge")
     if values.shape[0] > 1:
         padded[0, :] = 2 * padded[1, :] - padded[2, :]
@@ -118,8 +112,46 @@ def sample_raster(
     if values.shape[1] > 1:
         padded[:, 0] = 2 * padded[:, 1] - padded[:, 2]
         padded[:, -1] = 2 * padded[:, -2] - padded[:, -3]
-    frac = grid.fractional_index(xy) + 1.0
-    return ndimage.map_coordinates(padded, frac, order=1, mode="nearest")
+    return padded
+
+
+class RasterSampler:
+    """Bilinear sampling of rasters of one :class:`Grid` at fixed points, weights computed once.
+
+    Between cell centres a raster is interpolated bilinearly; in the outer half cell (and
+    beyond) it is extrapolated linearly from the two outermost cells, so a plane is
+    reproduced exactly everywhere. Hand-written instead of ``ndimage.map_coordinates``
+    because the refinement samples several rasters at the same points: the indices and
+    weights are shared, and a gather is ~10x faster than the general spline machinery.
+    """
+
+    def __init__(self, grid: Grid, xy: NDArray[np.float64]) -> None:
+        rows, cols = grid.shape
+        frac = grid.fractional_index(xy) + 1.0  # in the padded raster
+        r = np.clip(frac[0], 0.0, rows + 1.0)
+        c = np.clip(frac[1], 0.0, cols + 1.0)
+        r0 = np.minimum(np.floor(r).astype(np.intp), rows)
+        c0 = np.minimum(np.floor(c).astype(np.intp), cols)
+        self._wr = r - r0
+        self._wc = c - c0
+        self._k00 = r0 * (cols + 2) + c0
+        self._cols = cols + 2
+        self.grid = grid
+
+    def __call__(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Values of the raster (shaped like the grid) at the points."""
+        flat = _pad_linear(values).ravel()
+        k, w = self._k00, self._cols
+        top = flat[k] + self._wc * (flat[k + 1] - flat[k])
+        bottom = flat[k + w] + self._wc * (flat[k + w + 1] - flat[k + w])
+        return top + self._wr * (bottom - top)
+
+
+def sample_raster(
+    grid: Grid, values: NDArray[np.float64], xy: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Bilinear value of a raster at points ``xy`` (N, 2), see :class:`RasterSampler`."""
+    return RasterSampler(grid, xy)(values)
 
 
 def _gradient(values: NDArray[np.float64], cell_m: float) -> tuple[NDArray, NDArray]:
