@@ -87,6 +87,19 @@ def test_mean_and_median_rows():
     assert table.loc["mean", "unclassified_pct"] == pytest.approx((0 + 50 + 75) / 3)
 
 
+def test_summary_by_layer():
+    pred = REF.copy()
+    pred[np.flatnonzero(REF == 2)[:15]] = 0  # object 2: recall 0.5
+    objects = pd.DataFrame({"instance": [1, 2, 3], "layer": ["building", "building", "wall"]})
+    ev = evaluate_objects(pred, REF, reference_objects=objects)
+    per = ev.summary(by="layer")
+    assert per.loc[("building", "mean"), "recall"] == pytest.approx(0.75)
+    assert per.loc[("wall", "median"), "f1"] == 1.0
+    assert ev.to_dict()["summary_by_layer"]["building"]["mean"]["recall"] == pytest.approx(0.75)
+    with pytest.raises(InputError):
+        ev.summary(by="nope")
+
+
 def test_count_balance_on_random_labels():
     rng = np.random.default_rng(4)
     ref = rng.integers(0, 12, 5000)

@@ -73,14 +73,27 @@ class ObjectEvaluation:
     unmatched: pd.DataFrame
     match: str
 
-    def summary(self) -> pd.DataFrame:
-        """Mean and median of the scores over the reference objects that have points."""
+    def summary(self, by: str | None = None) -> pd.DataFrame:
+        """Mean and median of the scores over the reference objects that have points.
+
+        Parameters
+        ----------
+        by
+            A column of :attr:`objects` (e.g. ``"layer"``) to summarise per
+            group; the index is then ``(group, "mean" | "median")``.
+        """
         scored = self.objects[self.objects["n_reference"] > 0]
-        rows = {
-            "mean": scored[SCORE_COLUMNS].mean(skipna=True),
-            "median": scored[SCORE_COLUMNS].median(skipna=True),
-        }
-        return pd.DataFrame(rows).T
+        if by is not None:
+            if by not in scored.columns:
+                raise InputError(
+                    f"cannot summarise by {by!r}: no such column",
+                    hint=f"choose one of {', '.join(map(str, self.objects.columns))}",
+                )
+            parts = {g: _mean_median(part) for g, part in scored.groupby(by, sort=False)}
+            if not parts:
+                return _mean_median(scored).iloc[:0]
+            return pd.concat(parts, names=[by, "statistic"])
+        return _mean_median(scored)
 
     def table(self) -> pd.DataFrame:
         """Thesis-style table: a row per object, then the ``mean`` and ``median`` rows.
@@ -124,14 +137,22 @@ class ObjectEvaluation:
                 for r in out.to_dict(orient="records")
             ]
 
-        summ = self.summary()
+        def stats(df: pd.DataFrame) -> dict[str, Any]:
+            return {
+                name: {k: (None if _isnan(v) else float(v)) for k, v in row.items()}
+                for name, row in df.iterrows()
+            }
+
+        out_layers = {}
+        if "layer" in self.objects.columns:
+            per = self.summary(by="layer")
+            for layer in per.index.get_level_values(0).unique():
+                out_layers[str(layer)] = stats(per.loc[layer])
         return {
             "match": self.match,
             "objects": records(self.objects),
-            "summary": {
-                name: {k: (None if _isnan(v) else float(v)) for k, v in row.items()}
-                for name, row in summ.iterrows()
-            },
+            "summary": stats(self.summary()),
+            "summary_by_layer": out_layers,
             "unmatched_predicted": records(self.unmatched),
             "totals": self.totals(),
         }
@@ -148,6 +169,14 @@ class ObjectEvaluation:
             "fn": int(o["fn"].sum()),
             "unclassified": int(o["n_unclassified"].sum()),
         }
+
+
+def _mean_median(scored: pd.DataFrame) -> pd.DataFrame:
+    rows = {
+        "mean": scored[SCORE_COLUMNS].mean(skipna=True),
+        "median": scored[SCORE_COLUMNS].median(skipna=True),
+    }
+    return pd.DataFrame(rows).T
 
 
 def _isnan(v: Any) -> bool:

@@ -136,6 +136,9 @@ class ComplexScene:
         ``feature_index`` (row in its layer), ``name``, ``n_points``.
     ground
         ``(N,)`` bool, True for points on the terrain.
+    extent
+        The surveyed area (EPSG:32749): no point lies outside it, and the
+        building ``B19`` crosses its eastern edge.
     """
 
     cloud: PointCloud
