@@ -83,7 +83,8 @@ class RegionGrowingParams:
     curvature_max
         Largest curvature (surface variation) of a point that keeps growing a
         region (a *seed*).  ``None``: automatic, 2 times the median curvature
-        (the noise level of flat surfaces) with a floor of 0.01.
+        (the noise level of flat surfaces) clipped to [0.01, 0.1]; the cap keeps
+        volumetric clutter (vegetation, noise; curvature near 1/3) out.
     residual_m
         Largest distance between a point and its neighbour's tangent plane for
         the point to keep growing, metres.  ``None``: automatic, 4 times the
@@ -289,7 +290,7 @@ def _auto_thresholds(
         med = np.degrees(np.arccos(np.clip(np.median(c), -1.0, 1.0))) if len(c) else 1.0
         angle = float(np.clip(3.0 * med, 3.0, 20.0))
     if curv is None:
-        curv = float(max(2.0 * np.median(curvature[valid]), 0.01)) if valid.any() else 0.01
+        curv = float(np.clip(2.0 * np.median(curvature[valid]), 0.01, 0.1)) if valid.any() else 0.01
     if resid is None:
         resid = 4.0 * float(np.median(thickness[valid])) if valid.any() else 0.0
     return replace(params, angle_deg=angle, curvature_max=curv, residual_m=resid)
