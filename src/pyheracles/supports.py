@@ -113,8 +113,8 @@ class SupportParams:
     section_height_m: float | None = None
     section_thickness_m: float | None = None
     cluster_distance_m: float | None = None
-    candidate_step_m: float = 0.1
-    persistence_m: float = 0.5
+    candidate_step_m: float = 0.15
+    persistence_m: float = 0.45
     min_support_size_m: float = 0.1
     max_support_size_m: float = 2.5
     wall_min_aspect: float = 3.0
@@ -618,17 +618,28 @@ def detect_supports(
     xy0 = p[:, :2].min(axis=0)
     ij = np.floor((p[:, :2] - xy0) / cell).astype(np.int64)
     width = int(ij[:, 0].max()) + 1
+    height = int(ij[:, 1].max()) + 1
     keys = ij[:, 1] * width + ij[:, 0]
-    korder = np.argsort(keys, kind="stable")
-    ksorted = keys[korder]
     ring_w = 0.3
-    cand_sid, cand_idx, cand_rho, cand_ang = [], [], [], []
-    for sid, sh in enumerate(shapes):
+    # only points in cells near a support are sorted (a few % of a building cloud)
+    near = np.zeros((height, width), dtype=bool)
+    boxes = []
+    for sh in shapes:
         buf = max(params.buffer_min_m, params.buffer_fraction * float(np.max(sh["half"])))
         sh["buffer"] = buf
         reach = float(np.hypot(*sh["half"])) + buf + ring_w
-        lo = np.floor((sh["centre"] - reach - xy0) / cell).astype(int)
-        hi = np.floor((sh["centre"] + reach - xy0) / cell).astype(int)
+        lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
+        hi = np.minimum(np.floor((sh["centre"] + reach - xy0) / cell).astype(int),
+                        [width - 1, height - 1])  # fmt: skip
+        near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
+        boxes.append((lo, hi))
+    cand = np.flatnonzero(near.ravel()[keys])
+    korder = cand[np.argsort(keys[cand], kind="stable")]
+    ksorted = keys[korder]
+    cand_sid, cand_idx, cand_rho, cand_ang = [], [], [], []
+    for sid, sh in enumerate(shapes):
+        buf = sh["buffer"]
+        lo, hi = boxes[sid]
         parts = []
         for row in range(max(lo[1], 0), hi[1] + 1):  # loop over grid rows of one support
             a = np.searchsorted(ksorted, row * width + max(lo[0], 0), side="left")
