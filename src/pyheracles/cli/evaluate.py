@@ -280,6 +280,19 @@ def register(app: typer.Typer) -> None:
                 _fmt(r["recall"]), _fmt(r["f1"]), _fmt(r["unclassified_pct"], pct=True),
             )  # fmt: skip
         console.print(show)
+        if "layer" in ev.objects.columns and ev.objects["layer"].nunique() > 1:
+            per = ev.summary(by="layer")
+            by_layer = Table(title="Per layer")
+            for col in ("layer", "statistic", "prec.", "recall", "F1", "uncl.%"):
+                by_layer.add_column(
+                    col, justify="left" if col in ("layer", "statistic") else "right"
+                )
+            for (layer, stat), r in per.iterrows():
+                by_layer.add_row(
+                    str(layer), str(stat), _fmt(r["precision"]), _fmt(r["recall"]),
+                    _fmt(r["f1"]), _fmt(r["unclassified_pct"], pct=True),
+                )  # fmt: skip
+            console.print(by_layer)
         totals = ev.totals()
         summary = Table(title="Summary")
         summary.add_column("item")
