@@ -26,6 +26,7 @@ COMMAND_MODULES: list[str] = [
     "evaluate",
     "framework",
     "ground",
+    "registration",
 ]
 
 app = typer.Typer(

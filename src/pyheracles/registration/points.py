@@ -27,7 +27,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from pyheracles.errors import InputError
 
-__all__ = ["PointList", "PointPairs", "pair_points", "read_points", "write_points"]
+__all__ = [
+    "PointList",
+    "PointPairs",
+    "pair_points",
+    "read_point_groups",
+    "read_points",
+    "write_points",
+]
 
 _ALIASES = {
     "id": ("id", "name", "point", "point_id", "pointid", "label"),
@@ -139,15 +146,7 @@ def _find(columns: list[str], key: str) -> str | None:
     return None
 
 
-def read_points(path: str | Path) -> PointList:
-    """Read a point list CSV (id, X, Y, Z, optional sigmas).
-
-    Raises
-    ------
-    InputError
-        Missing file or columns, non-numeric or NaN coordinates, duplicated ids,
-        negative sigmas, empty list.
-    """
+def _read_table(path: str | Path) -> tuple[Path, pd.DataFrame]:
     p = Path(path)
     if not p.is_file():
         raise InputError("point list not found", path=p, hint="check the path")
@@ -156,8 +155,7 @@ def read_points(path: str | Path) -> PointList:
     if not lines:
         raise InputError("the point list is empty", path=p)
     try:
-        dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t ")
-        sep = dialect.delimiter
+        sep = csv.Sniffer().sniff(lines[0], delimiters=",;\t ").delimiter
     except csv.Error:
         sep = ","
     try:
@@ -169,6 +167,10 @@ def read_points(path: str | Path) -> PointList:
         )
     except (pd.errors.ParserError, ValueError) as exc:
         raise InputError(f"cannot parse the point list: {exc}", path=p) from exc
+    return p, df
+
+
+def _to_points(df: pd.DataFrame, p: Path) -> PointList:
     cols = [str(c) for c in df.columns]
     names = {k: _find(cols, k) for k in _ALIASES}
     missing = [k for k in ("id", "x", "y", "z") if names[k] is None]
@@ -208,6 +210,40 @@ def read_points(path: str | Path) -> PointList:
             "standard deviations must be numbers >= 0", path=p, hint="fix or drop the sigma columns"
         )
     return PointList(ids=tuple(ids), xyz=xyz, sigma=sigma, source=str(p))
+
+
+def read_points(path: str | Path) -> PointList:
+    """Read a point list CSV (id, X, Y, Z, optional sigmas).
+
+    Raises
+    ------
+    InputError
+        Missing file or columns, non-numeric or NaN coordinates, duplicated ids,
+        negative sigmas, empty list.
+    """
+    p, df = _read_table(path)
+    return _to_points(df, p)
+
+
+def read_point_groups(path: str | Path, column: str = "cloud") -> dict[str, PointList]:
+    """Read a point list whose ``column`` says in which cloud/frame each row is measured.
+
+    E.g. tie points ``id,cloud,X,Y,Z`` with ``cloud`` = ``source``/``target`` (or the
+    cloud file names); ids must be unique within each group.
+    """
+    p, df = _read_table(path)
+    low = {str(c).strip().lower(): c for c in df.columns}
+    if column not in low:
+        raise InputError(
+            f"no {column!r} column telling in which cloud each point is measured",
+            path=p,
+            hint=f"add a '{column}' column (e.g. source/target), or give one file per cloud",
+        )
+    key = low[column]
+    groups = {}
+    for name, sub in df.groupby(df[key].astype(str).str.strip(), sort=False):
+        groups[str(name)] = _to_points(sub.drop(columns=[key]).reset_index(drop=True), p)
+    return groups
 
 
 def write_points(path: str | Path, points: PointList) -> Path:

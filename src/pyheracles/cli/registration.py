@@ -1,0 +1,359 @@
+"""``heracles register``, ``heracles georef``, ``heracles checkpoints``: QC of integration."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from pyheracles.cli.common import console, output_dir
+from pyheracles.errors import InputError
+
+MODELS = ("similarity", "rigid")
+STRATEGIES = ("independent", "free", "block")
+
+
+def _check_choice(value: str, choices: tuple[str, ...], option: str) -> str:
+    if value not in choices:
+        raise InputError(f"{option} {value!r} is not one of {', '.join(choices)}")
+    return value
+
+
+def _parameter_table(title: str, result: Any) -> Table:
+    """Parameters with standard deviations of a SimilarityResult."""
+    table = Table(title=title)
+    for col in ("parameter", "value", "std dev"):
+        table.add_column(col, justify="right" if col != "parameter" else "left")
+    for name in result.parameter_names:
+        v, s = result.parameters[name], result.std[name]
+        if name in ("omega", "phi", "kappa"):
+            table.add_row(f"{name} (deg)", f"{np.degrees(v):.6f}", f"{np.degrees(s):.6f}")
+        elif name == "scale":
+            table.add_row(name, f"{v:.8f}", f"{s * 1e6:.1f} ppm")
+        else:
+            table.add_row(f"{name} (m)", f"{v:.4f}", f"{s * 1000:.1f} mm")
+    rms = result.rms()
+    table.add_row("sigma0", f"{result.sigma0:.3f}", "")
+    table.add_row("redundancy", str(result.redundancy), "")
+    table.add_row("pairs used / given", f"{result.n_used} / {result.n_pairs}", "")
+    table.add_row("RMS 3D (m)", f"{rms['3d']:.4f}", "")
+    return table
+
+
+def _pairs_for(tiepoints: list[Path], source: Path, target: Path):
+    from pyheracles.registration.points import pair_points, read_point_groups, read_points
+
+    if len(tiepoints) == 2:
+        return pair_points(read_points(tiepoints[0]), read_points(tiepoints[1]))
+    if len(tiepoints) != 1:
+        raise InputError("give --tiepoints once (file with a 'cloud' column) or twice")
+    groups = read_point_groups(tiepoints[0])
+    src_key = next((k for k in ("source", source.stem, source.name) if k in groups), None)
+    tgt_key = next((k for k in ("target", target.stem, target.name) if k in groups), None)
+    if src_key is None or tgt_key is None:
+        raise InputError(
+            f"the 'cloud' column has {sorted(groups)}; expected source/target or "
+            f"{source.stem}/{target.stem}",
+            path=tiepoints[0],
+        )
+    return pair_points(groups[src_key], groups[tgt_key])
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``heracles register``, ``georef`` and ``checkpoints``."""
+
+    @app.command("register")
+    def register_cmd(
+        source: Path = typer.Argument(..., help="Cloud to move (LAS/LAZ/PLY/E57)."),
+        target: Path = typer.Argument(..., help="Reference cloud."),
+        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        tiepoints: list[Path] = typer.Option(
+            None,
+            "--tiepoints",
+            help="Tie points: one CSV with columns id,cloud,X,Y,Z (cloud = source/target) "
+            "or two CSVs (source frame, target frame) with id,X,Y,Z[,sX,sY,sZ].",
+        ),
+        auto: bool = typer.Option(False, "--auto", help="Automatic tie points (window panes)."),
+        model: str = typer.Option("similarity", help="similarity (7 p) or rigid (6 p)."),
+        estimator: str = typer.Option("danish", help="lsq, danish, l1, huber or tukey."),
+        icp: bool = typer.Option(False, "--icp", help="Refine with point-to-plane ICP."),
+        pane_thickness: float = typer.Option(0.02, help="Glass thickness for --auto, m."),
+        force: bool = typer.Option(False, help="Write into a non-empty output folder."),
+    ) -> None:
+        """Register SOURCE onto TARGET from tie points (manual or automatic).
+
+        Writes transform.json (4x4 T_target_source with parameters and standard
+        deviations), the source cloud in the target frame, the tie points with their
+        residuals and run.json.
+
+        Examples:
+
+            heracles register interior.laz exterior.laz --tiepoints ties.csv -o reg/
+
+            heracles register interior.laz exterior.laz --auto --icp -o reg/
+        """
+        from dataclasses import replace
+
+        from pyheracles.io import read_cloud, write_cloud
+        from pyheracles.io.atomic import atomic_write_text
+        from pyheracles.provenance import write_run_json
+        from pyheracles.registration.icp import icp as run_icp
+        from pyheracles.registration.similarity import SimilarityParams, estimate_similarity
+        from pyheracles.registration.tiepoints import TiePointParams, find_tie_points
+        from pyheracles.registration.transform import apply_to_cloud, write_transform_json
+
+        _check_choice(model, MODELS, "--model")
+        if bool(tiepoints) == auto:
+            raise InputError("give either --tiepoints CSV or --auto (exactly one)")
+        sp = SimilarityParams(with_scale=model == "similarity", estimator=estimator)
+        timings: dict[str, float] = {}
+        t = time.perf_counter()
+        src = read_cloud(source)
+        tgt = read_cloud(target)
+        timings["read"] = time.perf_counter() - t
+        t = time.perf_counter()
+        extra: dict[str, Any] = {}
+        if auto:
+            tp = find_tie_points(
+                src, tgt, TiePointParams(pane_thickness_m=pane_thickness), similarity=sp
+            )
+            ids, a, b = tp.source.ids, tp.source.xyz, tp.target.xyz
+            sa = sb = None
+            extra["automatic_tie_points"] = {
+                k: v for k, v in tp.to_dict().items() if k != "similarity"
+            }
+        else:
+            pairs = _pairs_for(tiepoints, source, target)
+            ids, a, b, sa, sb = pairs.ids, pairs.a, pairs.b, pairs.sigma_a, pairs.sigma_b
+        res = estimate_similarity(a, b, sp, source_sigma=sa, target_sigma=sb, ids=ids)
+        T = res.T_target_source
+        timings["tie_points"] = time.perf_counter() - t
+        icp_res = None
+        if icp:
+            t = time.perf_counter()
+            icp_res = run_icp(src, tgt, T)
+            T = icp_res.T_target_source
+            extra["icp"] = icp_res.to_dict()
+            timings["icp"] = time.perf_counter() - t
+        t = time.perf_counter()
+        with output_dir(out, force=force) as stage:
+            write_transform_json(
+                stage / "transform.json", T, source=str(source), target=str(target), result=res,
+                extra=extra,
+            )  # fmt: skip
+            moved = replace(apply_to_cloud(src, T, crs=tgt.crs), source=str(source))
+            suffix = source.suffix.lower() if source.suffix.lower() in (".las", ".laz") else ".laz"
+            write_cloud(moved, stage / f"{source.stem}_registered{suffix}")
+            rows = ["id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"]
+            for i in range(len(ids)):
+                v = res.residuals[i]
+                rows.append(
+                    f"{ids[i]},{a[i, 0]:.4f},{a[i, 1]:.4f},{a[i, 2]:.4f},{b[i, 0]:.4f},"
+                    f"{b[i, 1]:.4f},{b[i, 2]:.4f},{v[0]:.4f},{v[1]:.4f},{v[2]:.4f},"
+                    f"{int(res.outliers[i])}"
+                )
+            atomic_write_text(stage / "tiepoints.csv", "\n".join(rows) + "\n")
+            timings["write"] = time.perf_counter() - t
+            write_run_json(
+                stage, step="register", parameters=sp,
+                inputs=[source, target, *(tiepoints or [])], timings=timings,
+                counts={"points_source": len(src), "points_target": len(tgt),
+                        "tie_points": len(ids), "outliers": int(res.outliers.sum())},
+                extra={"sigma0": res.sigma0, "rms_m": res.rms()},
+            )  # fmt: skip
+        console.print(_parameter_table(f"{source.name} -> {target.name}", res))
+        if icp_res is not None:
+            console.print(
+                f"ICP: converged={icp_res.converged}, {icp_res.iterations} iterations, "
+                f"overlap {icp_res.overlap_fraction:.1%}, RMS point-to-plane "
+                f"{icp_res.rms_point_to_plane_m * 1000:.1f} mm"
+            )
+        for i in np.flatnonzero(res.outliers):
+            console.print(f"[yellow]outlier:[/] tie point {ids[i]} ({res.residual_3d[i]:.3f} m)")
+        console.print(f"[green]wrote[/] {out}")
+
+    @app.command("georef")
+    def georef_cmd(
+        clouds: list[Path] = typer.Argument(..., help="Clouds to georeference."),
+        control: Path = typer.Option(..., "--control", help="Control points CSV (world)."),
+        measured: list[Path] = typer.Option(
+            ...,
+            "--measured",
+            help="Points measured in each cloud (CSV id,X,Y,Z, cloud frame), one per cloud "
+            "in the same order. Ids shared by two clouds are tie points.",
+        ),
+        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        strategy: str = typer.Option(
+            "independent", help="independent, free (first cloud is the base) or block."
+        ),
+        model: str = typer.Option("similarity", help="similarity (7 p) or rigid (6 p)."),
+        rigid: list[str] = typer.Option(
+            None, "--rigid", help="Cloud (file stem) with a rigid 6 p model, e.g. a TLS scan."
+        ),
+        estimator: str = typer.Option("danish", help="lsq, danish, l1, huber or tukey."),
+        sphere_radius: float = typer.Option(
+            None, help="Refine measured points as sphere target centres of this radius, m."
+        ),
+        force: bool = typer.Option(False, help="Write into a non-empty output folder."),
+    ) -> None:
+        """Georeference one or more clouds on control points (thesis ch. 3 strategies).
+
+        Example:
+
+            heracles georef exterior.laz interior.laz --control gcp.csv
+            --measured ext_targets.csv --measured int_targets.csv --rigid interior
+            --strategy block -o geo/
+        """
+        from dataclasses import replace
+
+        from pyheracles.io import read_cloud, write_cloud
+        from pyheracles.io.atomic import atomic_write_json
+        from pyheracles.provenance import write_run_json
+        from pyheracles.registration.points import read_points
+        from pyheracles.registration.similarity import SimilarityParams
+        from pyheracles.registration.strategies import (
+            CloudMeasurements,
+            block_adjustment,
+            free_network,
+            georeference_independent,
+        )
+        from pyheracles.registration.targets import measure_spheres
+        from pyheracles.registration.transform import apply_to_cloud, write_transform_json
+
+        _check_choice(strategy, STRATEGIES, "--strategy")
+        _check_choice(model, MODELS, "--model")
+        if len(measured) != len(clouds):
+            raise InputError(
+                f"{len(clouds)} clouds but {len(measured)} --measured files",
+                hint="give one --measured CSV per cloud, in the same order",
+            )
+        names = [c.stem for c in clouds]
+        if len(set(names)) != len(names):
+            raise InputError("cloud file names must differ (they name the outputs)")
+        t0 = time.perf_counter()
+        ctrl = read_points(control)
+        pcs = [read_cloud(c) for c in clouds]
+        meas = []
+        for pc, m in zip(pcs, measured, strict=True):
+            pts = read_points(m)
+            if sphere_radius:
+                pts = measure_spheres(pc, pts, sphere_radius)
+            meas.append(pts)
+        with_scale = model == "similarity"
+        unknown = sorted(set(rigid or []) - set(names))
+        if unknown:
+            raise InputError(f"--rigid {', '.join(unknown)} is not one of the clouds {names}")
+        cm = [
+            CloudMeasurements(n, p, with_scale=with_scale and n not in (rigid or []))
+            for n, p in zip(names, meas, strict=True)
+        ]
+        sp = SimilarityParams(with_scale=with_scale, estimator=estimator)
+        report: dict[str, Any] = {"strategy": strategy}
+        results: dict[str, Any] = {}
+        if strategy == "independent":
+            res = georeference_independent(cm, ctrl, sp)
+            transforms = {k: r.T_target_source for k, r in res.items()}
+            results = res
+            report["clouds"] = {k: r.to_dict() for k, r in res.items()}
+        elif strategy == "free":
+            if len(cm) != 2:
+                raise InputError("the free-network strategy takes exactly two clouds")
+            fn = free_network(cm[0], cm[1], meas[0], meas[1], ctrl, georef_params=sp)
+            transforms = {names[0]: fn.T_world_base, names[1]: fn.T_world_other}
+            results = {names[0]: fn.georef, names[1]: fn.tie}
+            report.update(fn.to_dict())
+        else:
+            blk = block_adjustment(cm, ctrl)
+            transforms = blk.transforms
+            report.update(blk.to_dict())
+        timings = {"adjust": time.perf_counter() - t0}
+        with output_dir(out, force=force) as stage:
+            for name, pc, path in zip(names, pcs, clouds, strict=True):
+                T = transforms[name]
+                write_transform_json(
+                    stage / f"transform_{name}.json", T, source=str(path),
+                    target=str(control), result=results.get(name),
+                )  # fmt: skip
+                moved = replace(apply_to_cloud(pc, T), source=str(path))
+                write_cloud(moved, stage / f"{name}_georef.laz")
+            atomic_write_json(stage / "georef.json", report)
+            write_run_json(
+                stage, step="georef", parameters=sp,
+                inputs=[*clouds, control, *measured], timings=timings,
+                counts={"clouds": len(clouds), "control_points": len(ctrl)},
+            )  # fmt: skip
+        for name, r in results.items():
+            console.print(_parameter_table(f"{name} ({strategy})", r))
+        if strategy == "block":
+            console.print(f"block adjustment: sigma0 {blk.sigma0:.3f}, redundancy {blk.redundancy}")
+        console.print(f"[green]wrote[/] {out}")
+
+    @app.command("checkpoints")
+    def checkpoints_cmd(
+        cloud: Path = typer.Argument(..., help="Registered/georeferenced cloud."),
+        points: Path = typer.Option(..., "--points", help="Check points CSV (reference)."),
+        measured: Path = typer.Option(
+            None, "--measured", help="Check points measured in the cloud (CSV, same ids)."
+        ),
+        sphere_radius: float = typer.Option(
+            None, help="Measure sphere targets of this radius near the reference positions, m."
+        ),
+        out: Path = typer.Option(None, "-o", "--out", help="Output folder (JSON, CSV, PNG)."),
+        force: bool = typer.Option(False, help="Write into a non-empty output folder."),
+    ) -> None:
+        """Residuals and RMS of independent check points; residual map as PNG.
+
+        Example:
+
+            heracles checkpoints geo/interior_georef.laz --points chk.csv
+            --sphere-radius 0.0725 -o qc/
+        """
+        from pyheracles.io import read_cloud
+        from pyheracles.io.atomic import atomic_write_json, atomic_write_text
+        from pyheracles.provenance import write_run_json
+        from pyheracles.registration.checkpoints import check_points, plot_residual_map
+        from pyheracles.registration.points import pair_points, read_points
+        from pyheracles.registration.targets import measure_spheres
+
+        if (measured is None) == (sphere_radius is None):
+            raise InputError("give either --measured CSV or --sphere-radius (exactly one)")
+        ref = read_points(points)
+        pc = read_cloud(cloud)
+        if measured is not None:
+            pairs = pair_points(ref, read_points(measured), unmatched="error", min_pairs=1)
+            ids, reference, meas = pairs.ids, pairs.a, pairs.b
+        else:
+            m = measure_spheres(pc, ref, sphere_radius)
+            ids, reference, meas = ref.ids, ref.xyz, m.xyz
+        rep = check_points(reference, meas, ids)
+        table = Table(title=f"check points ({len(ids)})")
+        for col in ("id", "vX (mm)", "vY (mm)", "vZ (mm)", "v3D (mm)"):
+            table.add_column(col, justify="right" if col != "id" else "left")
+        for i, k in enumerate(ids):
+            v = rep.residuals[i] * 1000
+            table.add_row(
+                k, f"{v[0]:.1f}", f"{v[1]:.1f}", f"{v[2]:.1f}", f"{np.linalg.norm(v):.1f}"
+            )
+        r = rep.rms
+        table.add_row("RMS", *(f"{r[k] * 1000:.1f}" for k in ("x", "y", "z", "3d")))
+        console.print(table)
+        if out is not None:
+            with output_dir(out, force=force) as stage:
+                atomic_write_json(stage / "checkpoints.json", rep.to_dict())
+                lines = ["id,vx,vy,vz,v3d"] + [
+                    f"{k},{rep.residuals[i, 0]:.4f},{rep.residuals[i, 1]:.4f},"
+                    f"{rep.residuals[i, 2]:.4f},{rep.residual_3d[i]:.4f}"
+                    for i, k in enumerate(ids)
+                ]
+                atomic_write_text(stage / "checkpoints.csv", "\n".join(lines) + "\n")
+                plot_residual_map(rep, stage / "residual_map.png", title=cloud.name)
+                write_run_json(
+                    stage, step="checkpoints", parameters={"sphere_radius_m": sphere_radius},
+                    inputs=[cloud, points, *([measured] if measured else [])],
+                    counts={"check_points": len(ids)}, extra={"rms_m": r},
+                )  # fmt: skip
+            console.print(f"[green]wrote[/] {out}")
