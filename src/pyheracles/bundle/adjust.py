@@ -32,6 +32,7 @@ from pyheracles.errors import DegenerateGeometryError, EstimationError, InputErr
 __all__ = ["BundleParameters", "BundleResult", "bundle_adjust", "prepare_network"]
 
 DAMPINGS = ("gna", "lm", "gn")
+DATUMS = ("auto", "control", "depend", "free")
 EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 
 
@@ -60,7 +61,9 @@ class BundleParameters:
         project's own choice (a DBAT script's), an empty tuple fixes the cameras.
     datum
         "auto" (control points if the project has at least 3 fixed or weighted
-        ones, else dependent relative orientation), "control" or "depend".
+        ones, else dependent relative orientation), "control", "depend", or
+        "free" (no datum at all: the adjustment then reports the rank deficiency
+        and names the undetermined parameters, as DBAT's no-datum demo).
     min_rays
         Tie points seen by fewer images are dropped with a warning.
     covariance
@@ -84,8 +87,8 @@ class BundleParameters:
     def __post_init__(self) -> None:
         if self.damping not in DAMPINGS:
             raise InputError(f"unknown damping '{self.damping}'; choose one of {list(DAMPINGS)}")
-        if self.datum not in ("auto", "control", "depend"):
-            raise InputError(f"unknown datum '{self.datum}'; choose auto, control or depend")
+        if self.datum not in DATUMS:
+            raise InputError(f"unknown datum '{self.datum}'; choose one of {list(DATUMS)}")
         if self.max_iterations < 1 or not (0 < self.tolerance < 1):
             raise InputError("max_iterations must be >= 1 and 0 < tolerance < 1")
 
@@ -175,6 +178,7 @@ class BundleResult:
     timings: dict = field(default_factory=dict)
     rank_deficiency: list = field(default_factory=list)
     redundancy_numbers: np.ndarray | None = None
+    prior_redundancy_numbers: np.ndarray | None = None
 
     @property
     def cameras(self):
@@ -187,6 +191,8 @@ class BundleResult:
 
 
 def _choose_datum(project: Project, params: BundleParameters) -> str:
+    if params.datum == "free":
+        return "free"
     n_ctrl = int(
         np.sum(
             (project.point_role == "control")
@@ -287,7 +293,9 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
     weighted = ctrl[:, None] & np.isfinite(std) & (std > 0)
     datum = _choose_datum(project, params)
     fixed_coord = None
-    if datum == "control":
+    if datum == "free":
+        pass
+    elif datum == "control":
         op_free &= ~fixed
         op_prior[weighted] = project.xyz[weighted]
         op_prior_std[weighted] = std[weighted]
@@ -464,7 +472,9 @@ def _reduce(ne: _Normal, lam: float = 0.0) -> None:
     bad = ~(np.abs(det) > 1e-14 * np.abs(scale))
     if np.any(bad):
         raise DegenerateGeometryError(
-            f"{int(bad.sum())} object point(s) are undetermined (singular 3x3 normal block)"
+            f"{int(bad.sum())} object point(s) are undetermined (singular 3x3 normal block: "
+            f"rays parallel or from one centre), point indices {np.flatnonzero(bad)[:10].tolist()}",
+            hint="remove these points or add images with a wider base",
         )
     ne.a_inv = np.linalg.inv(a)
     npt = a.shape[0]
@@ -711,6 +721,7 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
         t2 = time.perf_counter()
         _posterior(result, ne, fac, d)
         result.redundancy_numbers = _redundancy_numbers(result, ne, jac)
+        result.prior_redundancy_numbers = _prior_redundancy(result)
         timings["covariance"] = time.perf_counter() - t2
     timings["total"] = time.perf_counter() - t0
     return result
@@ -797,3 +808,16 @@ def _redundancy_numbers(res: BundleResult, ne: _Normal, jac, chunk: int = 20000)
         )
         out[sl] = 1.0 - h
     return out
+
+
+def _prior_redundancy(res: BundleResult) -> np.ndarray:
+    """Redundancy numbers of the prior (EO, then object point) observations."""
+    net = res.network
+    s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
+    eo_m = np.isfinite(net.eo_prior_std)
+    op_m = np.isfinite(net.op_prior_std)
+    q_eo = np.diag(res.cov_cam)[net.eo_col[eo_m]] / s02
+    q_op = np.einsum("nii->ni", res.cov_xyz)[op_m] / s02
+    return np.concatenate(
+        [1.0 - q_eo / net.eo_prior_std[eo_m] ** 2, 1.0 - q_op / net.op_prior_std[op_m] ** 2]
+    )

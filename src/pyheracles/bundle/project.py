@@ -156,8 +156,17 @@ class Project:
                 BundleWarning,
                 stacklevel=2,
             )
-        if np.any(weak):
-            proj = proj.drop_points(weak)
+        unobserved = (rays == 0) & (self.point_role != "check")
+        if np.any(unobserved):
+            ids = self.point_ids[unobserved]
+            warnings.warn(
+                f"{src}: {len(ids)} point(s) without image observations dropped "
+                f"(ids {ids[:10].tolist()}{' ...' if len(ids) > 10 else ''})",
+                BundleWarning,
+                stacklevel=2,
+            )
+        if np.any(weak | unobserved):
+            proj = proj.drop_points(weak | unobserved)
         per_image = np.bincount(proj.obs_image, minlength=proj.n_images)
         if np.any(per_image == 0):
             ids = proj.image_ids[per_image == 0]
