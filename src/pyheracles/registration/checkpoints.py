@@ -157,14 +157,17 @@ def plot_residual_map(
         scale=1.0,
         width=0.003,
     )
-    ref_r = float(np.ceil(r3.max() * 100) / 100) if r3.max() > 0 else 0.01
+    # legend circle: the largest "nice" value (1, 2, 5 x 10^k m) not above the largest residual
+    top = max(float(r3.max()), 1e-4)
+    nice = np.array([1, 2, 5])[None, :] * 10.0 ** np.arange(-4, 1)[:, None]
+    ref_r = float(nice[nice <= top].max())
     legend_xy = (xy[:, 0].min(), xy[:, 1].min() - 0.12 * extent)
     ax.add_patch(Circle(legend_xy, ref_r * circle_scale, fill=False, edgecolor="k"))
-    ax.annotate(
-        f"{ref_r * 100:.0f} cm (3D)",
-        legend_xy,
-        xytext=(10 + ref_r * circle_scale, 0),
-        textcoords="offset points",
+    ax.text(
+        legend_xy[0] + 1.3 * ref_r * circle_scale,
+        legend_xy[1],
+        f"{ref_r * 1000:g} mm (3D)",
+        va="center",
     )
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(-lim * 100, lim * 100))
     fig.colorbar(sm, ax=ax, label="height residual (cm)")
