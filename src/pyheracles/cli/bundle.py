@@ -1,0 +1,134 @@
+"""``heracles bundle``: photogrammetric quality control by bundle adjustment (QC-1)."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["register"]
+
+_HELP = "\n\n".join(
+    [
+        "Re-process a photogrammetric project with a bundle adjustment with self-calibration "
+        "and expose its statistics (thesis ch. 2; DBAT conventions): sigma0, posterior "
+        "standard deviations of the cameras, images and points, correlations over 95 %, "
+        "control and check point residuals, per-image statistics, data snooping.",
+        "PROJECT: a DBAT XML script (.xml, its operations give the estimated parameters and "
+        "the datum) or a PhotoModeler text export (.txt).",
+        "--control: control/check points 'id[,label],X,Y,Z[,sXYZ | sX,sY,sZ][,check]' "
+        "(no standard deviation = fixed). --estimate: interior parameters to estimate "
+        "(cc,px,py,as,sk,K1,K2,K3,P1,P2; 'none' = fixed camera; default: the project's "
+        "choice). --damping gna (Gauss-Newton-Armijo, DBAT default), lm or gn.",
+        "Writes into OUTDIR: report.txt (DBAT layout), report.json, radial_distortion.png, "
+        "eo_std_hist.png, image_stats.png, run.json.",
+        "Examples:",
+        "  heracles bundle romabundledemo/romabundledemo.xml -o out/roma",
+        "  heracles bundle camcal-pmexport.txt --control camcal-fixed.txt --model 3 "
+        "--estimate cc,px,py,as,K1,K2,K3,P1,P2 -o out/camcal",
+    ]
+)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``bundle`` subcommand."""
+
+    @app.command("bundle", help=_HELP)
+    def bundle_cmd(
+        project: Annotated[Path, typer.Argument(help="Project file (.xml DBAT script, .txt PM).")],
+        out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+        control: Annotated[
+            Path | None, typer.Option("--control", help="Control/check point table.")
+        ] = None,
+        estimate: Annotated[
+            str | None, typer.Option("--estimate", help="IO parameters to estimate, comma list.")
+        ] = None,
+        damping: Annotated[str, typer.Option("--damping", help="gna, lm or gn.")] = "gna",
+        model: Annotated[
+            int | None, typer.Option("--model", help="Lens distortion model 1-5 (DBAT).")
+        ] = None,
+        datum: Annotated[str, typer.Option("--datum", help="auto, control or depend.")] = "auto",
+        max_iterations: Annotated[int, typer.Option("--max-iterations")] = 20,
+        default_io: Annotated[
+            float | None,
+            typer.Option("--default-io", help="Start from cc=VALUE mm, centred pp, no distortion."),
+        ] = None,
+        no_plots: Annotated[bool, typer.Option("--no-plots", help="Skip the PNG plots.")] = False,
+        force: Annotated[bool, typer.Option("--force", help="Overwrite OUT.")] = False,
+    ) -> None:
+        from rich.table import Table
+
+        from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust
+        from pyheracles.bundle.readers import read_control_points, read_project
+        from pyheracles.bundle.report import write_reports
+        from pyheracles.cli.common import console, output_dir
+        from pyheracles.errors import InputError
+        from pyheracles.provenance import write_run_json
+
+        t0 = time.perf_counter()
+        est: tuple[str, ...] | None = None
+        if estimate is not None:
+            names = [s.strip() for s in estimate.split(",") if s.strip()]
+            est = () if names in (["none"], []) else tuple(names)
+        params = BundleParameters(
+            damping=damping, estimate_io=est, datum=datum, max_iterations=max_iterations
+        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", BundleWarning)
+            proj = read_project(project)
+            if model is not None:
+                proj = proj.with_model(model)
+            if control is not None:
+                proj = proj.with_control(read_control_points(control))
+            if default_io is not None:
+                proj = proj.with_default_io(default_io)
+            t_read = time.perf_counter() - t0
+            result = bundle_adjust(proj, params)
+        for w in caught:
+            if issubclass(w.category, BundleWarning):
+                console.print(f"[yellow]warning:[/] {w.message}", highlight=False)
+        if not result.converged:  # pragma: no cover - bundle_adjust raises instead
+            raise InputError("bundle adjustment did not converge", path=project)
+        with output_dir(out, force=force) as stage:
+            paths = write_reports(result, stage, plots=not no_plots)
+            timings = {"read": t_read, **result.timings}
+            write_run_json(
+                stage,
+                step="bundle",
+                parameters=params,
+                inputs=[project, *([control] if control else [])],
+                timings=timings,
+                counts={
+                    "images": result.project.n_images,
+                    "points": result.project.n_points,
+                    "image_observations": result.project.n_observations,
+                },
+                extra={"sigma0": result.sigma0, "redundancy": result.redundancy},
+            )
+        table = Table(title=f"bundle: {project.name}", show_header=False)
+        table.add_row("sigma0", f"{result.sigma0:.6g}")
+        table.add_row("redundancy", f"{result.redundancy:,}")
+        table.add_row(
+            "parameters",
+            f"{result.n_parameters:,} ({int(result.network.io_free.sum())} IO, "
+            f"{int(result.network.eo_free.sum())} EO, {int(result.network.op_free.sum())} OP)",
+        )
+        table.add_row("observations", f"{result.n_observations:,}")
+        table.add_row("iterations", f"{result.iterations} ({params.damping})")
+        table.add_row("datum", result.network.datum)
+        for ci, cam in enumerate(result.project.cameras):
+            free = result.network.io_free[ci]
+            for j in range(len(free)):
+                if free[j]:
+                    from pyheracles.bundle.camera import IO_NAMES
+
+                    table.add_row(
+                        f"camera {cam.id} {IO_NAMES[j]}",
+                        f"{result.io[ci, j]:.6g} ± {result.io_std[ci, j]:.3g}",
+                    )
+        table.add_row("time", f"{time.perf_counter() - t0:.1f} s")
+        table.add_row("outputs", ", ".join(p.name for p in paths.values()) + ", run.json")
+        console.print(table)
