@@ -21,6 +21,7 @@ __all__ = ["COMMAND_MODULES", "app", "main", "run"]
 #: Modules of ``pyheracles.cli`` that add subcommands through ``register(app)``.
 COMMAND_MODULES: list[str] = [
     "building",
+    "bundle",
     "complex",
     "demo",
     "evaluate",
