@@ -110,6 +110,25 @@ def test_prague2016_photomodeler(shared_data, sub, stub, weighted, orient):
     _check(res, report)
 
 
+def test_photoscan_sxb(shared_data):
+    """PhotoScan project re-processed by DBAT (markers 0.1 px, tie points 1 px, weighted GCP)."""
+    root = shared_data / "dbat" / "prague2016" / "sxb" / "psprojects"
+    project = read_project(root / "sxb.psz")
+    assert (project.n_images, project.n_points) == (5, 1182)
+    res = bundle_adjust(project, BundleParameters(estimate_io=()))
+    rep = read_dbat_report(root / "sxb-dbatreport.txt")
+    assert res.redundancy == rep.redundancy == 4604
+    assert res.n_observations == rep.n_observations == 8180
+    _check(res, root / "sxb-dbatreport.txt")
+
+
+def test_unreadable_photoscan(tmp_path):
+    bad = tmp_path / "x.psz"
+    bad.write_bytes(b"PK not really a zip")
+    with pytest.raises(InputError, match="unreadable PhotoScan project"):
+        read_project(bad)
+
+
 def test_camcal_without_datum_names_rank_deficiency(shared_data):
     """DBAT's no-datum demo fails with a numerical rank deficiency of 7."""
     root = shared_data / "dbat" / "dbat"

@@ -7,6 +7,7 @@ from pathlib import Path
 from pyheracles.bundle.project import Project
 from pyheracles.bundle.readers.dbat_script import read_camera_xml, read_dbat_script
 from pyheracles.bundle.readers.photomodeler import read_control_points, read_photomodeler
+from pyheracles.bundle.readers.photoscan import read_photoscan
 from pyheracles.errors import InputError
 
 __all__ = [
@@ -14,6 +15,7 @@ __all__ = [
     "read_control_points",
     "read_dbat_script",
     "read_photomodeler",
+    "read_photoscan",
     "read_project",
 ]
 
@@ -22,7 +24,8 @@ def read_project(path: str | Path) -> Project:
     """Read a project, choosing the reader from the file name and content.
 
     Supported: DBAT XML script (``*.xml`` with ``dbat_script_version``),
-    PhotoModeler text export (``*.txt`` starting with a "Bundle Soln" title line).
+    PhotoModeler text export (``*.txt`` starting with a "Bundle Soln" title line),
+    PhotoScan/Metashape archive (``*.psz``).
     """
     path = Path(path)
     if not path.exists():
@@ -32,8 +35,10 @@ def read_project(path: str | Path) -> Project:
         return read_dbat_script(path)
     if suffix == ".txt":
         return read_photomodeler(path)
+    if suffix == ".psz":
+        return read_photoscan(path)
     raise InputError(
         "unknown project format",
         path=path,
-        hint="give a DBAT XML script (.xml) or a PhotoModeler text export (.txt)",
+        hint="give a DBAT XML script (.xml), a PhotoModeler export (.txt) or a PhotoScan .psz",
     )
