@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pyheracles.bundle.project import Project
+from pyheracles.bundle.readers.colmap import read_colmap
 from pyheracles.bundle.readers.dbat_script import read_camera_xml, read_dbat_script
 from pyheracles.bundle.readers.photomodeler import read_control_points, read_photomodeler
 from pyheracles.bundle.readers.photoscan import read_photoscan
@@ -12,6 +13,7 @@ from pyheracles.errors import InputError
 
 __all__ = [
     "read_camera_xml",
+    "read_colmap",
     "read_control_points",
     "read_dbat_script",
     "read_photomodeler",
@@ -25,11 +27,20 @@ def read_project(path: str | Path) -> Project:
 
     Supported: DBAT XML script (``*.xml`` with ``dbat_script_version``),
     PhotoModeler text export (``*.txt`` starting with a "Bundle Soln" title line),
-    PhotoScan/Metashape archive (``*.psz``).
+    PhotoScan/Metashape archive (``*.psz``), COLMAP text model (a folder with
+    ``cameras.txt``, ``images.txt``, ``points3D.txt``).
     """
     path = Path(path)
     if not path.exists():
         raise InputError("project file not found", path=path)
+    if path.is_dir():
+        if (path / "images.txt").is_file():
+            return read_colmap(path)
+        raise InputError(
+            "folder is not a COLMAP text model (no images.txt)",
+            path=path,
+            hint="export the model as text (colmap model_converter --output_type TXT)",
+        )
     suffix = path.suffix.lower()
     if suffix == ".xml":
         return read_dbat_script(path)
