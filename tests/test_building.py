@@ -242,3 +242,17 @@ def test_aerial_building_has_no_supports(shared_data: Path) -> None:
     assert len(found.objects) == 0
     assert prepared.scale_to_m == 1.0
     assert seg.check_balance()["total"] == len(pts)
+
+
+def test_engaged_columns_with_a_gap_at_the_wall(scenes) -> None:
+    """Occlusion in the re-entrant corner: the wall face next to each half-column is
+    missing, so the column is barely (or not) connected to the wall in the section."""
+    scene = scenes["hall"]
+    eng = scene.supports[scene.supports["class"] == "engaged_column"]
+    drop = np.zeros(len(scene.xyz), dtype=bool)
+    for _, r in eng.iterrows():
+        near = np.hypot(scene.xyz[:, 0] - r.x, scene.xyz[:, 1] - r.y) < r.radius_m + 0.1
+        drop |= (scene.part == "wall") & near
+    _, found, _, _ = segment_building(scene.xyz[~drop])
+    counts = found.objects["class"].value_counts().to_dict()
+    assert counts == {"column": 8, "engaged_column": 8}

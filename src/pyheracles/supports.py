@@ -439,7 +439,7 @@ def _engaged_on_wall(
         along = p[inl] @ np.array([-n[1], n[0]])
         span = np.ptp(along) if inl.any() else 0.0
         bins = np.unique(np.floor(along / (2 * distance)))
-        if span <= 0 or len(bins) * 2 * distance < 0.7 * span:
+        if span < 1.0 or len(bins) * 2 * distance < 0.7 * span:  # not a chord of a bump
             break
         lines.append((n, d, float(np.sqrt(np.mean((p[inl] @ n - d) ** 2)))))
         rest = rest[~inl]
@@ -454,20 +454,25 @@ def _engaged_on_wall(
             continue
         circle = fit_circle(p)
         lo, hi = params.engaged_radius_m
+        noise = float(np.median([f[2] for f in lines]))  # the faces' RMS is the noise level
         if (
             not circle
             or not lo <= circle.radius <= hi
-            or circle.rms > max(tol, 0.05 * circle.radius)
+            or circle.rms > min(max(tol, 0.05 * circle.radius), 3 * noise + 0.002)
         ):
             continue
-        # attached to a face: centre close to a face line, bump on one side
+        q = p - circle.center
+        arc = np.unique(np.floor((np.arctan2(q[:, 1], q[:, 0]) + np.pi) / (2 * np.pi) * 36))
+        if len(arc) < 9:  # less than a quarter of a circle: a corner, not a half-column
+            continue
+        # attached to a face: centre close to a face line, bump standing out of it
         for n, d, face_rms in lines:
             dc = float(circle.center @ n - d)
             if abs(dc) <= 0.6 * circle.radius + tol:
-                side = np.sign(np.median(p @ n - d))
-                if side == 0:
+                off = p @ n - d
+                side = np.sign(np.median(off))
+                if side == 0 or np.max(side * off) < 0.5 * circle.radius:
                     continue
-                # the bump must lie on the side opposite the wall body: not between faces
                 found.append((circle.center, circle.radius, side * n, side * d, face_rms))
                 break
     return found
@@ -566,7 +571,14 @@ def detect_supports(
 
     # support shapes: (kind, centre, radius or half sizes, angle, wall normal, wall d)
     shapes: list[dict] = []
+    wall_xy = [p[sec_idx[i.index], :2] for i in islands if i.kind == "wall"]
+    wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
     for isl in islands:
+        if isl.kind == "column" and wall_tree is not None:
+            eng = _detached_half_column(p[sec_idx[isl.index], :2], isl, wall_tree, distance)
+            if eng is not None:
+                shapes.append(eng)
+                continue
         if isl.kind in ("column", "pier"):
             shapes.append(
                 {
@@ -629,8 +641,9 @@ def detect_supports(
         sh["buffer"] = buf
         reach = float(np.hypot(*sh["half"])) + buf + ring_w
         lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
-        hi = np.minimum(np.floor((sh["centre"] + reach - xy0) / cell).astype(int),
-                        [width - 1, height - 1])  # fmt: skip
+        hi = np.minimum(
+            np.floor((sh["centre"] + reach - xy0) / cell).astype(int), [width - 1, height - 1]
+        )
         near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
         boxes.append((lo, hi))
     cand = np.flatnonzero(near.ravel()[keys])
@@ -717,7 +730,16 @@ def detect_supports(
         top_ref = min(ceil_z, z1)
         if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
             continue
-        rows.append(_describe(p, cidx, crho, sh, tol))
+        row = _describe(p, cidx, crho, sh, tol)
+        if sh["class"] != "pier" and not (
+            abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
+        ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
+            notes.append(
+                f"a round candidate at ({sh['centre'][0]:.2f}, {sh['centre'][1]:.2f}) "
+                "was rejected: its cylinder fit disagrees with its section"
+            )
+            continue
+        rows.append(row)
         instance[cidx] = len(rows)
     objects = pd.DataFrame(rows) if rows else _empty_table()
     if len(objects):
@@ -725,6 +747,41 @@ def detect_supports(
     if not rows:
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+def _detached_half_column(
+    xy: Array, isl: Island, wall_tree: cKDTree, distance: float
+) -> dict | None:
+    """A column island that is only an arc and stands against a wall is an engaged column
+    whose junction with the wall was not captured (occlusion in the re-entrant corner)."""
+    q = xy - isl.center
+    bins = np.unique(np.floor((np.arctan2(q[:, 1], q[:, 0]) + np.pi) / (2 * np.pi) * 36))
+    if len(bins) > 0.75 * 36:
+        return None
+    near = wall_tree.query_ball_point(isl.center, isl.radius + 3 * distance)
+    if len(near) < 10:
+        return None
+    w = wall_tree.data[near]
+    m = w.mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov((w - m).T))
+    n = vec[:, 0]  # face normal (smallest spread)
+    d = float(n @ m)
+    side = np.sign(np.median(xy @ n - d))
+    if side == 0 or abs(float(isl.center @ n - d)) > 0.6 * isl.radius + distance:
+        return None
+    face_rms = float(np.sqrt(np.mean((w @ n - d) ** 2)))
+    return {
+        "class": "engaged_column",
+        "island": None,
+        "centre": isl.center,
+        "radius": isl.radius,
+        "half": np.array([isl.radius, isl.radius]),
+        "angle": 0.0,
+        "normal": side * n,
+        "d": side * d,
+        "face_gap": max(0.01, 3 * face_rms),
+        "circularity": isl.circularity,
+    }
 
 
 def _dedupe(shapes: list[dict]) -> list[dict]:
