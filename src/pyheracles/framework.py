@@ -86,13 +86,15 @@ class BeamParams:
     surface_tolerance_m
         Points closer than this to a fitted cuboid's surface join that beam,
         metres; ``None``: 3 times the median facet plane RMS, at least 1 cm.
-    grid_m
-        Facets, bands and cuboids are computed on one point per cell of this
-        grid, metres (``None``: on every point); the labels are then given to
-        every input point from the cuboids.  1 cm keeps at least 4 points across
-        the narrowest face, lets 24 neighbours span about 3 cm, well above the
-        2-5 mm noise of terrestrial scans (denser neighbourhoods give noisy
-        normals), and folds exact duplicates.
+    thin_spacing_m
+        Clouds denser than this median point spacing (metres) are randomly
+        thinned to it for the facets, bands and cuboids (``None``: never); the
+        labels are then given to every input point from the cuboids.  8 mm
+        keeps at least 5 points across the narrowest face and lets 24
+        neighbours span about 2.5 cm, well above the 2-5 mm noise of
+        terrestrial scans (denser neighbourhoods give noisy normals and
+        curvature).  Random thinning, unlike a voxel grid, leaves no layering
+        of noisy surfaces.
     """
 
     region: RegionGrowingParams = field(
@@ -108,13 +110,13 @@ class BeamParams:
     max_gap_m: float = 1.0
     min_contact_fraction: float = 0.4
     surface_tolerance_m: float | None = None
-    grid_m: float | None = 0.01
+    thin_spacing_m: float | None = 0.008
 
     def validate(self) -> BeamParams:
-        if self.grid_m is not None and not 0 < self.grid_m < self.min_beam_width_m:
+        if self.thin_spacing_m is not None and not 0 < self.thin_spacing_m < self.min_beam_width_m:
             raise InputError(
-                f"grid_m must be in (0, min_beam_width_m), got {self.grid_m}",
-                hint="use a grid finer than the narrowest beam face, or None for no grid",
+                f"thin_spacing_m must be in (0, min_beam_width_m), got {self.thin_spacing_m}",
+                hint="use a spacing finer than the narrowest beam face, or None for no thinning",
             )
         if not 0 < self.min_beam_width_m < self.max_beam_width_m:
             raise InputError(
@@ -393,6 +395,49 @@ def _sharpest_direction(
     return float(angles[k])
 
 
+def _planar_parts(
+    normals: NDArray[np.float64],
+    index: NDArray[np.int64],
+    min_points: int,
+    gen: np.random.Generator,
+    *,
+    angle_deg: float = 20.0,
+) -> list[NDArray[np.int64]]:
+    """Split a region into its dominant normal directions.
+
+    Region growing can bridge two perpendicular faces of a beam through the
+    rounded band of blended normals along their edge; such a region is not
+    planar and cannot be cut into bands.  Greedy dominant directions (the
+    candidate normal with most points within ``angle_deg``, refined by the mean
+    of those points) separate the faces; blended edge points stay out.  A
+    planar region comes back whole.
+    """
+    n = normals[index]
+    cos_t = np.cos(np.radians(angle_deg))
+    live = np.ones(len(index), dtype=bool)
+    parts: list[NDArray[np.int64]] = []
+    for _ in range(6):
+        alive = np.flatnonzero(live)
+        if len(alive) < min_points:
+            break
+        sample = alive if len(alive) <= 2000 else gen.choice(alive, 2000, replace=False)
+        cands = n[sample[:: max(1, len(sample) // 100)]]
+        votes = (np.abs(n[sample] @ cands.T) >= cos_t).sum(axis=0)
+        c = cands[int(votes.argmax())]
+        inl = alive[np.abs(n[alive] @ c) >= cos_t]
+        signs = np.sign(n[inl] @ c)[:, None]
+        c = (n[inl] * signs).mean(axis=0)
+        c /= np.linalg.norm(c)
+        inl = alive[np.abs(n[alive] @ c) >= cos_t]
+        if len(inl) < min_points:
+            break
+        if not parts and len(inl) >= 0.9 * len(alive):
+            return [index]  # planar: keep the region whole, edge points included
+        parts.append(index[inl])
+        live[inl] = False
+    return parts
+
+
 def split_facet(
     xyz: NDArray[np.float64],
     index: NDArray[np.int64],
@@ -436,9 +481,8 @@ def split_facet(
     """
     gen = rng if rng is not None else np.random.default_rng(0)
     pts = xyz[index]
-    c, normal, inplane = _plane_frame(pts)
+    c, _, inplane = _plane_frame(pts)
     q_all = (pts - c) @ inplane.T
-    plane_d = (pts - c) @ normal
     remaining = np.ones(len(index), dtype=bool)
     out: list[StraightFacet] = []
     bin_m = max(spacing_m, 0.004)
@@ -486,14 +530,18 @@ def split_facet(
             length = float(t[run[-1]] - t[run[0]])
             ok_w = params.min_beam_width_m <= width <= params.max_beam_width_m
             if len(run) >= min_pts and ok_w and length >= params.min_elongation * width:
+                # the band's own plane: a merged facet may hold faces a few
+                # millimetres apart (T joints of members of unequal thickness)
+                c_run, n_run, _ = _plane_frame(pts[r_idx])
                 axis3 = d2 @ inplane
-                rms = float(np.sqrt(np.mean(plane_d[r_idx] ** 2)))
+                axis3 -= (axis3 @ n_run) * n_run
+                rms = float(np.sqrt(np.mean(((pts[r_idx] - c_run) @ n_run) ** 2)))
                 out.append(
                     StraightFacet(
                         index=index[r_idx],
-                        normal=normal,
+                        normal=n_run,
                         axis=axis3 / np.linalg.norm(axis3),
-                        centre=pts[r_idx].mean(axis=0),
+                        centre=c_run,
                         width=float(width),
                         length=length,
                         plane_rms=rms,
@@ -662,8 +710,44 @@ def group_facets(
 
 
 # ----------------------------------------------------------------------------- cuboid
+def _face_points(
+    xyz: NDArray[np.float64], f: StraightFacet, bin_m: float, free: NDArray[np.bool_] | None
+) -> NDArray[np.float64]:
+    """The facet's points plus the unclaimed cloud points on its plane past its band.
+
+    Near an edge the normals are blended and points often stay out of every
+    facet; the side of a cuboid read from a face's edge needs them back.  Taken:
+    points in no straight facet (``free``; the adjacent face's own edge strip
+    would pile up at the edge) within 3 plane RMS of the plane, inside the
+    facet's length and at most 5 cm (or 10 bins) past its band on either side.
+    """
+    if free is None:
+        return xyz[f.index]
+    across = np.cross(f.normal, f.axis)
+    own = xyz[f.index]
+    t = (own - f.centre) @ f.axis
+    s = (own - f.centre) @ across
+    margin = max(0.05, 10 * bin_m)
+    lo = own.min(axis=0) - margin
+    hi = own.max(axis=0) + margin
+    cand = xyz[np.all((xyz >= lo) & (xyz <= hi), axis=1) & free]
+    rel = cand - f.centre
+    keep = (
+        (np.abs(rel @ f.normal) <= max(3.0 * f.plane_rms, bin_m))
+        & (rel @ f.axis >= t.min())
+        & (rel @ f.axis <= t.max())
+        & (rel @ across >= s.min() - margin)
+        & (rel @ across <= s.max() + margin)
+    )
+    return np.vstack([own, cand[keep]])
+
+
 def fit_beam_cuboid(
-    xyz: NDArray[np.float64], facets: list[StraightFacet], *, bin_m: float
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    *,
+    bin_m: float,
+    free: NDArray[np.bool_] | None = None,
 ) -> BeamCuboid:
     """Oriented cuboid of a beam from its straight facets.
 
@@ -677,7 +761,9 @@ def fit_beam_cuboid(
       non-parallel faces;
     - each side of the cross-section comes from the plane of the face on that
       side (median offset, robust) when that face was seen, otherwise from the
-      half-density edge of the adjacent faces' points (unbiased by noise);
+      half-density edge of the adjacent faces' points (unbiased by noise),
+      including the ``free`` points (in no facet) on those faces' planes, which
+      restores the edge strips where blended normals kept points out of facets;
     - the length from the 0.5 / 99.5 % quantiles of the points along the axis.
 
     Raises
@@ -712,7 +798,7 @@ def fit_beam_cuboid(
         across = [f for f in facets if abs(f.normal @ d) < abs(f.normal @ other)]
         offsets = np.array([np.median(xyz[f.index] @ d) for f in facing])
         if across:
-            a_vals = np.concatenate([xyz[f.index] @ d for f in across])
+            a_vals = np.concatenate([_face_points(xyz, f, bin_m, free) @ d for f in across])
         else:
             a_vals = pts @ d
         e_lo, e_hi = _half_max_edges(a_vals, bin_m)
@@ -765,6 +851,7 @@ def _merge_and_absorb(
     group: NDArray[np.int32],
     p: BeamParams,
     bin_m: float,
+    free: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.int32]:
     """Merge collinear beam pieces and absorb lone facets lying on a beam.
 
@@ -779,7 +866,7 @@ def _merge_and_absorb(
     for g in range(1, n_groups + 1):
         try:
             cubs[g] = fit_beam_cuboid(
-                xyz, [facets[i] for i in np.flatnonzero(group == g)], bin_m=bin_m
+                xyz, [facets[i] for i in np.flatnonzero(group == g)], bin_m=bin_m, free=free
             )
         except DegenerateGeometryError:
             continue
@@ -816,18 +903,6 @@ def _merge_and_absorb(
 
 
 # ----------------------------------------------------------------------------- pipeline
-def _grid_subsample(xyz: NDArray[np.float64], cell_m: float) -> NDArray[np.int64]:
-    """Indices (in input order) of the first point of every occupied grid cell.
-
-    Exact duplicates and over-dense scans collapse to one point per cell.
-    """
-    cell = np.floor((xyz - xyz.min(axis=0)) / cell_m).astype(np.int64)
-    dims = cell.max(axis=0) + 1
-    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
-    _, first = np.unique(key, return_index=True)
-    return np.sort(first)
-
-
 def _assign_to_cuboids(
     xyz: NDArray[np.float64], beams: list[BeamCuboid], tol: float
 ) -> NDArray[np.int32]:
@@ -963,13 +1038,16 @@ def segment_beams(
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     full = arr
-    keep = _grid_subsample(full, p.grid_m) if p.grid_m else np.arange(len(full))
-    if len(keep) < len(full):
+    if tree is None:
+        tree = build_tree(full)
+    spacing = point_spacing(full, tree)
+    keep = np.arange(len(full))
+    if p.thin_spacing_m is not None and spacing < p.thin_spacing_m:
+        fraction = (spacing / p.thin_spacing_m) ** 2
+        keep = np.flatnonzero(gen.random(len(full)) < fraction)
         arr = full[keep]
         tree = build_tree(arr)
-    elif tree is None:
-        tree = build_tree(arr)
-    spacing = point_spacing(arr, tree)
+        spacing = point_spacing(arr, tree)
     regions = region_growing(arr, p.region, tree=tree)
     timings["facets"] = time.perf_counter() - t0
     if regions.n_regions == 0:
@@ -986,7 +1064,8 @@ def segment_beams(
         idx = order[bounds[r] : bounds[r + 1]]
         if len(idx) < p.min_facet_points:
             continue
-        facets.extend(split_facet(arr, idx, p, spacing_m=spacing, parent=r, rng=gen))
+        for part in _planar_parts(regions.normals, idx, p.min_facet_points, gen):
+            facets.extend(split_facet(arr, part, p, spacing_m=spacing, parent=r, rng=gen))
     timings["split"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     contact = p.contact_m
@@ -1006,13 +1085,16 @@ def segment_beams(
     timings["group"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     bin_m = max(spacing, 0.004)
-    facet_beam = _merge_and_absorb(arr, facets, group, p, bin_m)
+    free = np.ones(len(arr), dtype=bool)
+    for f in facets:
+        free[f.index] = False
+    facet_beam = _merge_and_absorb(arr, facets, group, p, bin_m, free)
     cuboids: list[BeamCuboid] = []
     final = np.zeros(len(facets), dtype=np.int32)
     for g in range(1, int(facet_beam.max(initial=0)) + 1):
         members = [facets[i] for i in np.flatnonzero(facet_beam == g)]
         try:
-            cub = fit_beam_cuboid(arr, members, bin_m=bin_m)
+            cub = fit_beam_cuboid(arr, members, bin_m=bin_m, free=free)
         except DegenerateGeometryError:
             continue
         cuboids.append(cub)
