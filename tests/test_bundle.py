@@ -29,7 +29,7 @@ def small_network():
     return make_network(NetworkParameters(n_images=16, n_points=1500, n_control=8), rng=3)
 
 
-@pytest.mark.parametrize("model", [2, 3, 4, 5])
+@pytest.mark.parametrize("model", [-1, 2, 3, 4, 5])
 def test_jacobians_match_finite_differences(model, rng):
     m = 6
     io = np.tile([7.4, 3.6, 2.7, 0.01, 0.02, 4e-3, -5e-5, -2e-6, -6e-5, -4e-5], (m, 1))

@@ -58,6 +58,7 @@ def test_romabundledemo_script(shared_data):
     ("export", "report", "model"),
     [
         ("camcal-pmexport.txt", "camcal-dbatreport.txt", 3),
+        ("camcal-pmexport.txt", "camcal-dbatreport-model-1.txt", -1),
         ("camcal-pmexport.txt", "camcal-dbatreport-model1.txt", 1),
         ("camcal-pmexport.txt", "camcal-dbatreport-model2.txt", 2),
         ("camcal-pmexport.txt", "camcal-dbatreport-model3.txt", 3),

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from pyheracles.bundle.camera import IO_NAMES, image_residuals
+from pyheracles.bundle.camera import FORWARD_MODEL, IO_NAMES, MODELS, image_residuals
 from pyheracles.bundle.initial import (
     centre_rotation,
     forward_intersection,
@@ -267,7 +267,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
         project = project.with_estimated_io(params.estimate_io)
     cams = project.cameras
     model = cams[0].model
-    if model not in (1, 2, 3, 4, 5):
+    if model not in MODELS:
         raise InputError(f"unsupported lens distortion model {model}", path=project.source)
     obs_cam = project.image_camera[project.obs_image]
     pix = np.array([c.pixel_size_mm for c in cams])
@@ -280,7 +280,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
     project = _initial_values(project, uv_mm, obs_cam)
 
     io_free = project.estimate_io.copy()
-    if model in (1, 2):
+    if model in (1, 2, FORWARD_MODEL):
         io_free[:, 3:5] = False
     eo_free = project.estimate_eo.copy()
     role = project.point_role

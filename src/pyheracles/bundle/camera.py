@@ -20,7 +20,10 @@ Lens distortion models (DBAT numbering):
 1, 2: no affinity (``as``, ``sk`` must stay 0);
 3: affinity ``[[1+as, sk], [0, 1]]`` before the distortion (DBAT's default);
 4: affinity after the distortion;
-5: anisotropic scale ``1+as`` of the raw x coordinate, skew after the distortion.
+5: anisotropic scale ``1+as`` of the raw x coordinate, skew after the distortion;
+-1: forward (computer vision) model: the *projected* point p is distorted and
+compared with the measured one, ``p - p (K1 r^2 + ...) - T(p) = measured``
+(DBAT's sign convention of the forward model), no affinity.
 
 References
 ----------
@@ -46,6 +49,9 @@ __all__ = [
 IO_NAMES: tuple[str, ...] = ("cc", "px", "py", "as", "sk", "K1", "K2", "K3", "P1", "P2")
 _IO = {name: i for i, name in enumerate(IO_NAMES)}
 BACKWARD_MODELS = (1, 2, 3, 4, 5)
+#: DBAT's forward (computer vision) model -1: the projected point is distorted.
+FORWARD_MODEL = -1
+MODELS = (*BACKWARD_MODELS, FORWARD_MODEL)
 
 
 @dataclass(frozen=True)
@@ -304,6 +310,8 @@ def image_residuals(
     z = xc[:, 2]
     proj = xc[:, :2] / z[:, None]
     cc = io[:, 0]
+    if model == FORWARD_MODEL:
+        return _forward_residuals(io, proj, xc, rot, drot, diff, uv_mm, jacobian)
     corr, dcorr = corrected_points(uv_mm, io, model, jacobian)
     res = -cc[:, None] * proj - corr
     if not jacobian:
@@ -324,4 +332,36 @@ def image_residuals(
     d_eo[:, :, 3:6] = np.einsum("mij,mjk->mik", dp, dxc)
     d_io = -dcorr
     d_io[:, :, 0] += -proj
+    return res, (d_xyz, d_eo, d_io)
+
+
+def _forward_residuals(io, proj, xc, rot, drot, diff, uv_mm, jacobian):
+    """Residuals of the forward model: distort the projected point, subtract the measured one."""
+    cc = io[:, 0]
+    p_mm = -cc[:, None] * proj
+    x = np.column_stack([uv_mm[:, 0] - io[:, 1], uv_mm[:, 1] + io[:, 2]])
+    d, dda, ddk, ddp = _distortion(p_mm, -io[:, 5:8], -io[:, 8:10])
+    res = d - x
+    if not jacobian:
+        return res
+    m = p_mm.shape[0]
+    z = xc[:, 2]
+    dp = np.zeros((m, 2, 3))
+    f = -cc / z
+    dp[:, 0, 0] = f
+    dp[:, 1, 1] = f
+    dp[:, 0, 2] = -f * proj[:, 0]
+    dp[:, 1, 2] = -f * proj[:, 1]
+    dp = np.einsum("mij,mjk->mik", dda, dp)  # chain through the distortion
+    d_xyz = np.einsum("mik,mjk->mij", dp, rot)
+    d_eo = np.empty((m, 2, 6))
+    d_eo[:, :, :3] = -d_xyz
+    dxc = np.einsum("mjik,mj->mik", drot, diff)
+    d_eo[:, :, 3:6] = np.einsum("mij,mjk->mik", dp, dxc)
+    d_io = np.zeros((m, 2, len(IO_NAMES)))
+    d_io[:, :, 0] = np.einsum("mij,mj->mi", dda, -proj)
+    d_io[:, 0, 1] = 1.0
+    d_io[:, 1, 2] = -1.0
+    d_io[:, :, 5:8] = -ddk
+    d_io[:, :, 8:10] = -ddp
     return res, (d_xyz, d_eo, d_io)

@@ -270,6 +270,6 @@ class Project:
         """A copy whose cameras use lens distortion model ``model``."""
         from dataclasses import replace as _replace
 
-        if model not in (1, 2, 3, 4, 5):
-            raise InputError(f"unknown lens distortion model {model}; choose 1-5")
+        if model not in (1, 2, 3, 4, 5, -1):
+            raise InputError(f"unknown lens distortion model {model}; choose 1-5 or -1")
         return self.replace(cameras=tuple(_replace(c, model=model) for c in self.cameras))

@@ -109,13 +109,14 @@ def make_network(
     # Stations: rows x cols grid; each station has 1 or 2 (convergent) views.
     views = 2 if p.convergent else 1
     n_st = int(np.ceil(p.n_images / views))
-    rows = max(1, round(float(np.sqrt(n_st * p.wall_height_m / 30.0))))
-    cols = int(np.ceil(n_st / rows))
-    # Footprint of one image on the wall, about 60 % overlap along the strip.
+    # Footprint of one image on the wall; 40 % side lap, 30 % strip overlap: each
+    # point is seen by about 4-6 images (a typical close-range block).
     foot_w = p.distance_m * sw / io[0]
     foot_h = p.distance_m * p.sensor_height_mm / io[0]
     step_x = 0.6 * foot_w
-    step_z = min(0.7 * foot_h, p.wall_height_m / max(rows, 1))
+    step_z = 0.7 * foot_h
+    rows = max(1, min(round(float(np.sqrt(n_st / 4.0))), int(p.wall_height_m / step_z) + 1))
+    cols = int(np.ceil(n_st / rows))
     width = step_x * (cols - 1) + foot_w
     xs = np.arange(cols) * step_x + foot_w / 2
     zs = np.arange(rows) * step_z + foot_h / 2
@@ -163,7 +164,7 @@ def make_network(
     # Invert the backward lens model by fixed-point iteration: find m with D(m) = ideal.
     io_m = np.broadcast_to(io, (len(ideal), io.size))
     m = ideal.copy()
-    for _ in range(30):
+    for _ in range(8):
         uv_mm = np.column_stack([m[:, 0] + io[1], m[:, 1] - io[2]])
         corr, _ = corrected_points(uv_mm, io_m, 3)
         m = m - (corr - ideal)
