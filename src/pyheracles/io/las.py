@@ -42,6 +42,13 @@ _STANDARD_DIMS = (
 _DEFAULT_SCALE = 0.001  # metres; 1 mm, the resolution the design promises
 
 
+def _laz_backend() -> laspy.LazBackend | None:
+    """lazrs with one thread per core when available (LAZ chunks are independent)."""
+    if laspy.LazBackend.LazrsParallel.is_available():
+        return laspy.LazBackend.LazrsParallel
+    return None
+
+
 def read_las(path: str | Path) -> PointCloud:
     """Read a LAS, LAZ or COPC file into a :class:`PointCloud`.
 
@@ -58,7 +65,7 @@ def read_las(path: str | Path) -> PointCloud:
     if not p.is_file():
         raise InputError("file not found", path=p, hint="check the path")
     try:
-        las = laspy.read(p)
+        las = laspy.read(p, laz_backend=_laz_backend())
     except Exception as exc:  # laspy raises many types for damaged files
         raise InputError(
             f"cannot read as LAS/LAZ ({type(exc).__name__}: {exc})",
@@ -161,5 +168,5 @@ def write_las(
     if len(cloud):
         las.update_header()
     with atomic_path(p) as tmp:
-        las.write(tmp)
+        las.write(tmp, laz_backend=_laz_backend() if p.suffix.lower() == ".laz" else None)
     return p
