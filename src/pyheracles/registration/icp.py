@@ -54,6 +54,10 @@ class ICPParams:
     min_overlap
         Smallest fraction of (sampled) source points with a correspondence; below it
         the clouds are reported as not overlapping.
+    evaluation_samples
+        Source points (random, seeded) on which the final overlap and RMS are measured;
+        ``None`` uses every point.  500 000 points give the overlap fraction to about
+        0.1 % and save seconds on multi-million point clouds.
     seed
         Seed of the random subsampling.
     """
@@ -63,9 +67,10 @@ class ICPParams:
     samples: tuple[int, ...] = (5_000, 20_000, 80_000)
     iterations_per_level: int = 15
     normal_neighbours: int = 12
-    tolerance: float = 1e-7
+    tolerance: float = 1e-6
     overlap_distance_m: float | None = None
     min_overlap: float = 0.05
+    evaluation_samples: int | None = 500_000
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -85,7 +90,7 @@ class ICPResult:
     rms_point_to_plane_m: float
     rms_point_to_point_m: float
     overlap_fraction: float
-    n_overlap: int
+    n_overlap: int  # estimated from evaluation_samples when the cloud is larger
     n_source: int
     spacing_m: float
     covariance: NDArray[np.float64]  # 6x6 (rotation vector rad, translation m), formal
@@ -274,8 +279,13 @@ def icp(
     T = np.eye(4)
     T[:3, :3] = R @ A0
     T[:3, 3] = tgt.offset + R @ (T0[:3, 3] - tgt.offset) + t
-    # final statistics on all source points
-    ps_all = src.xyz @ (R @ A0).T + (R @ shift + t)
+    # final statistics on all source points (or a large random sample of them)
+    eval_idx = (
+        np.arange(len(src))
+        if p.evaluation_samples is None or p.evaluation_samples >= len(src)
+        else np.sort(rng.choice(len(src), size=p.evaluation_samples, replace=False))
+    )
+    ps_all = src.xyz[eval_idx] @ (R @ A0).T + (R @ shift + t)
     dist, nn = tree.query(ps_all, k=1, distance_upper_bound=d_overlap, workers=-1)
     ok = np.isfinite(dist)
     n_ok = int(ok.sum())
@@ -302,8 +312,8 @@ def icp(
         iterations=total_iter,
         rms_point_to_plane_m=rms_pl,
         rms_point_to_point_m=rms_pt,
-        overlap_fraction=n_ok / len(src),
-        n_overlap=n_ok,
+        overlap_fraction=n_ok / len(eval_idx),
+        n_overlap=round(n_ok * len(src) / len(eval_idx)),
         n_source=len(src),
         spacing_m=spacing,
         covariance=cov,

@@ -525,7 +525,7 @@ def estimate_similarity(
         T2, s2 = stats(fit, np.ones(n, bool))
         trusted = T2 / s2 <= crit
     else:
-        trusted = point_w > 0.5
+        trusted = point_w > 0.1  # excludes only clear blunders (e > ~3.3 for Tukey)
     if trusted.sum() < 4:
         trusted = np.ones(n, bool)
     w_t = np.repeat(trusted[:, None], 3, axis=1).astype(float)
