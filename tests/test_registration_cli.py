@@ -117,3 +117,34 @@ def test_bad_inputs_exit_2(files, tmp_path: Path, capsys) -> None:
         ["register", str(files["interior"]), str(files["exterior"]), "-o", str(tmp_path / "z")]
     )
     assert code == 2
+
+
+@pytest.mark.realdata
+def test_register_bunny_with_icp(shared_data: Path, tmp_path: Path) -> None:
+    """Real scans: rough tie points (1 cm noise) then ICP reach the published pose."""
+    from test_registration_icp import bunny_poses
+
+    folder = shared_data / "bunny"
+    poses = bunny_poses(folder)
+    T_true = np.linalg.inv(poses["bun000.ply"]) @ poses["bun045.ply"]
+    src = read_cloud(folder / "bun045.ply").world_xyz()
+    rng = np.random.default_rng(3)
+    pick = src[rng.choice(len(src), 6, replace=False)]
+    ids = [f"P{i}" for i in range(6)]
+    write_points(tmp_path / "s.csv", PointList(ids, pick))
+    write_points(
+        tmp_path / "t.csv",
+        PointList(ids, apply_to_points(T_true, pick) + rng.normal(0, 0.002, pick.shape)),
+    )
+    out = tmp_path / "reg"
+    code = main(
+        ["register", str(folder / "bun045.ply"), str(folder / "bun000.ply"),
+         "--tiepoints", str(tmp_path / "s.csv"), "--tiepoints", str(tmp_path / "t.csv"),
+         "--model", "rigid", "--estimator", "lsq", "--icp", "-o", str(out)]
+    )  # fmt: skip
+    assert code == 0
+    T = read_transform_json(out / "transform.json")
+    err = apply_to_points(T, src[::50]) - apply_to_points(T_true, src[::50])
+    assert np.abs(err).max() < 1e-3  # metres; the tie points alone are off by ~2 mm
+    icp_report = json.loads((out / "transform.json").read_text())["icp"]
+    assert icp_report["converged"] and icp_report["overlap_fraction"] > 0.8
