@@ -341,8 +341,7 @@ def _choose_height(
     order: NDArray[np.intp],
     z_sorted: Array,
     params: SupportParams,
-    thickness: float,
-    distance: float,
+    sc: _Scales,
     z_lo: float,
     z_hi: float,
 ) -> tuple[float, list[tuple[float, int]]]:
@@ -351,6 +350,7 @@ def _choose_height(
     An island is persistent at a height when an island of about the same size is found at
     the same place ``persistence_m`` above and below.
     """
+    thickness, distance = sc.thickness, sc.distance
     k_off = max(1, round(params.persistence_m / params.candidate_step_m))
     step = params.candidate_step_m
     cands = np.arange(z_lo - k_off * step, z_hi + k_off * step + 1e-9, step)
@@ -527,6 +527,14 @@ def detect_supports(
     -------
     SupportResult
         Per-point support ids aligned with ``xyz`` and the supports table.
+
+    Examples
+    --------
+    >>> from pyheracles.synthetic.buildings import building_scene
+    >>> scene = building_scene("hall", spacing_m=0.06, rng=0)
+    >>> found = detect_supports(scene.xyz)
+    >>> found.objects["class"].value_counts().to_dict()
+    {'engaged_column': 8, 'column': 8}
     """
     params = params or SupportParams()
     rng = np.random.default_rng(params.seed)
@@ -536,79 +544,24 @@ def detect_supports(
     if n < params.min_points:
         return _with_note(empty, "too few points for a support search")
     spacing = spacing_m if spacing_m is not None else _spacing(p, rng)
-    distance = params.cluster_distance_m or float(np.clip(4.0 * spacing, 0.03, 0.1))
-    # A slab of thickness t through a vertical surface of density lam (points / m^2) has
-    # lam * t points per metre of outline; gaps are exponential, so P(gap > d) =
-    # exp(-lam t d).  t = 9 / (lam d) keeps that below 1e-4: islands do not break up.
-    # lam from the median nearest-neighbour distance of a Poisson sample: ln 2 / (pi s^2).
-    lam = np.log(2) / (np.pi * spacing**2)
-    thickness = params.section_thickness_m or float(max(0.05, 9.0 / (lam * distance)))
-    tol = params.surface_tolerance_m or max(0.03, 2.0 * spacing)
+    sc = _scales(spacing, params)
     order = np.argsort(p[:, 2]) if z_order is None else np.asarray(z_order)
     z_sorted = p[order, 2]
     z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
-    body_h = z1 - z0
+
+    # 1. section height: given, or where support islands are most numerous and stable
+    scores: list[tuple[float, int]] = []
     if params.section_height_m is not None:
         h_sec = z0 + params.section_height_m
-        scores: list[tuple[float, int]] = []
     else:
-        h_sec, scores = _choose_height(
-            p,
-            order,
-            z_sorted,
-            params,
-            thickness,
-            distance,
-            z0 + 0.25 * body_h,
-            z0 + 0.85 * body_h,
-        )
-    s, e = np.searchsorted(z_sorted, [h_sec - thickness / 2, h_sec + thickness / 2])
+        lo, hi = z0 + 0.25 * (z1 - z0), z0 + 0.85 * (z1 - z0)
+        h_sec, scores = _choose_height(p, order, z_sorted, params, sc, lo, hi)
+    # 2. islands of the section, and the support shapes they give
+    s, e = np.searchsorted(z_sorted, [h_sec - sc.thickness / 2, h_sec + sc.thickness / 2])
     sec_idx = order[s:e]
-    islands = section_islands(p[sec_idx, :2], params, distance)
-    notes: list[str] = []
-    if not len(sec_idx):
-        notes.append(f"the section at z = {h_sec:.2f} m is empty")
-
-    # support shapes: (kind, centre, radius or half sizes, angle, wall normal, wall d)
-    shapes: list[dict] = []
-    wall_xy = [p[sec_idx[i.index], :2] for i in islands if i.kind == "wall"]
-    wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
-    for isl in islands:
-        if isl.kind == "column" and wall_tree is not None:
-            eng = _detached_half_column(p[sec_idx[isl.index], :2], isl, wall_tree, distance)
-            if eng is not None:
-                shapes.append(eng)
-                continue
-        if isl.kind in ("column", "pier"):
-            shapes.append(
-                {
-                    "class": isl.kind,
-                    "island": sec_idx[isl.index],
-                    "centre": isl.center,
-                    "radius": isl.radius,
-                    "half": isl.size / 2,
-                    "angle": isl.angle,
-                    "circularity": isl.circularity,
-                }
-            )
-        elif isl.kind == "wall" and params.engaged:
-            wp = p[sec_idx[isl.index], :2]
-            for c, r, nrm, d, face_rms in _engaged_on_wall(wp, params, tol, distance, rng):
-                shapes.append(
-                    {
-                        "class": "engaged_column",
-                        "island": None,
-                        "centre": c,
-                        "radius": r,
-                        "half": np.array([r, r]),
-                        "angle": 0.0,
-                        "normal": nrm,
-                        "d": d,
-                        "face_gap": max(0.01, 3 * face_rms),
-                        "circularity": float("nan"),
-                    }
-                )
-    shapes = _dedupe(shapes)
+    islands = section_islands(p[sec_idx, :2], params, sc.distance)
+    notes: list[str] = [] if len(sec_idx) else [f"the section at z = {h_sec:.2f} m is empty"]
+    shapes = _support_shapes(p[sec_idx, :2], islands, params, sc, rng)
     if not shapes:
         notes.append(
             f"no support found in the section at z = {h_sec:.2f} m "
@@ -616,121 +569,19 @@ def detect_supports(
             f"{sum(i.kind == 'noise' for i in islands)} noise islands)"
         )
         return SupportResult(
-            np.zeros(n, dtype=np.int32),
-            _empty_table(),
-            h_sec,
-            spacing,
-            islands,
-            tuple(notes),
-            scores,
+            empty.instance, empty.objects, h_sec, spacing, islands, tuple(notes), scores
         )
-
-    # ---- cookie-cutter: gather candidates around each shape via a 2D cell index
-    cell = 0.25
-    xy0 = p[:, :2].min(axis=0)
-    ij = np.floor((p[:, :2] - xy0) / cell).astype(np.int64)
-    width = int(ij[:, 0].max()) + 1
-    height = int(ij[:, 1].max()) + 1
-    keys = ij[:, 1] * width + ij[:, 0]
-    ring_w = 0.3
-    # only points in cells near a support are sorted (a few % of a building cloud)
-    near = np.zeros((height, width), dtype=bool)
-    boxes = []
-    for sh in shapes:
-        buf = max(params.buffer_min_m, params.buffer_fraction * float(np.max(sh["half"])))
-        sh["buffer"] = buf
-        reach = float(np.hypot(*sh["half"])) + buf + ring_w
-        lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
-        hi = np.minimum(
-            np.floor((sh["centre"] + reach - xy0) / cell).astype(int), [width - 1, height - 1]
-        )
-        near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
-        boxes.append((lo, hi))
-    cand = np.flatnonzero(near.ravel()[keys])
-    korder = cand[np.argsort(keys[cand], kind="stable")]
-    ksorted = keys[korder]
-    cand_sid, cand_idx, cand_rho, cand_ang = [], [], [], []
-    for sid, sh in enumerate(shapes):
-        buf = sh["buffer"]
-        lo, hi = boxes[sid]
-        parts = []
-        for row in range(max(lo[1], 0), hi[1] + 1):  # loop over grid rows of one support
-            a = np.searchsorted(ksorted, row * width + max(lo[0], 0), side="left")
-            b = np.searchsorted(ksorted, row * width + min(hi[0], width - 1), side="right")
-            parts.append(korder[a:b])
-        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
-        rho, ang = _offset(p[idx, :2], sh)
-        keep = rho <= buf + ring_w
-        cand_sid.append(np.full(keep.sum(), sid))
-        cand_idx.append(idx[keep])
-        cand_rho.append(rho[keep])
-        cand_ang.append(ang[keep])
-    sid_all = np.concatenate(cand_sid)
-    idx_all = np.concatenate(cand_idx)
-    rho_all = np.concatenate(cand_rho)
-    ang_all = np.concatenate(cand_ang)
-    # each point to the support it is closest to (normalised by the buffer)
-    bufs = np.array([sh["buffer"] for sh in shapes])
-    srt = np.lexsort((rho_all / bufs[sid_all], idx_all))
-    first = np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]
-    pick = srt[first]
-    sid_all, idx_all, rho_all, ang_all = sid_all[pick], idx_all[pick], rho_all[pick], ang_all[pick]
-    grp = np.argsort(sid_all, kind="stable")
-    gcounts = np.bincount(sid_all, minlength=len(shapes))
-    gb = np.r_[0, np.cumsum(gcounts)]
-
+    # 3. cookie-cutter: the points around each shape, overlaps to the nearest shape
+    cookies = _cookies(p, shapes, params)
+    # 4. per support: floor and ceiling off, clutter off, final clustering, primitive
     instance = np.zeros(n, dtype=np.int32)
     rows = []
-    layer = max(0.05, 3.0 * spacing)
-    voxel = max(0.03, 3.0 * spacing)
-    for sid, sh in enumerate(shapes):  # loop over supports
-        sel = grp[gb[sid] : gb[sid + 1]]
-        idx, rho, ang = idx_all[sel], rho_all[sel], ang_all[sel]
-        z = p[idx, 2]
-        buf = sh["buffer"]
-        ring = rho > buf
-        # floor: the low surface of the ring (and of the cookie) under the section
-        below = z < h_sec
-        floor_pts = z[below & ring] if np.count_nonzero(below & ring) >= 10 else z[below]
-        floor_z = float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z0
-        # ceiling: per ring cell the highest point; cells covered above the section
-        ceil_z = np.inf
-        rz = p[idx[ring]]
-        if len(rz):
-            cij = np.floor((rz[:, :2] - xy0) / 0.1).astype(np.int64)
-            ck = cij[:, 1] * (int(cij[:, 0].max()) + 1) + cij[:, 0]
-            uk, inv = np.unique(ck, return_inverse=True)
-            cmax = np.full(len(uk), -np.inf)
-            np.maximum.at(cmax, inv.ravel(), rz[:, 2])
-            covered = cmax > h_sec + thickness
-            if covered.mean() >= 0.5:
-                ceil_z = float(np.quantile(cmax[covered], 0.1))
-        inside = ~ring & (z > floor_z + params.floor_tolerance_m)
-        inside &= z < ceil_z - params.ceiling_tolerance_m
-        if sh["class"] == "engaged_column":
-            front = p[idx, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
-            inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
-        cidx = idx[inside]
-        if len(cidx) < params.min_points:
+    for sh, (idx, rho, ang) in zip(shapes, cookies, strict=True):  # loop over supports
+        kept = _extract_support(p, idx, rho, ang, sh, params, sc, h_sec, (z0, z1))
+        if kept is None:
             continue
-        n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * spacing)))
-        keep = _sector_filter(rho[inside], ang[inside], p[cidx, 2], layer, min(n_sec, 72), tol)
-        cidx, crho = cidx[keep], rho[inside][keep]
-        if len(cidx) < params.min_points:
-            continue
-        # final clustering: keep what is connected to the section island
-        lab = voxel_clusters(p[cidx], voxel, 1)
-        in_sec = np.abs(p[cidx, 2] - h_sec) <= thickness / 2
-        good = np.unique(lab[in_sec & (lab > 0)])
-        if len(good) == 0:
-            continue
-        conn = np.isin(lab, good)
-        cidx, crho = cidx[conn], crho[conn]
-        zz = p[cidx, 2]
-        top_ref = min(ceil_z, z1)
-        if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
-            continue
-        row = _describe(p, cidx, crho, sh, tol)
+        cidx, crho = kept
+        row = _describe(p, cidx, crho, sh, sc.tol)
         if sh["class"] != "pier" and not (
             abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
         ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
@@ -747,6 +598,216 @@ def detect_supports(
     if not rows:
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+@dataclass(frozen=True)
+class _Scales:
+    """Automatic lengths derived from the point spacing (metres)."""
+
+    spacing: float
+    distance: float  # island clustering distance
+    thickness: float  # section slab thickness
+    tol: float  # surface tolerance
+
+
+def _scales(spacing: float, params: SupportParams) -> _Scales:
+    distance = params.cluster_distance_m or float(np.clip(4.0 * spacing, 0.03, 0.1))
+    # A slab of thickness t through a vertical surface of density lam (points / m^2) has
+    # lam * t points per metre of outline; gaps are exponential, so P(gap > d) =
+    # exp(-lam t d).  t = 9 / (lam d) keeps that below 1e-4: islands do not break up.
+    # lam from the median nearest-neighbour distance of a Poisson sample: ln 2 / (pi s^2).
+    lam = np.log(2) / (np.pi * spacing**2)
+    thickness = params.section_thickness_m or float(max(0.05, 9.0 / (lam * distance)))
+    tol = params.surface_tolerance_m or max(0.03, 2.0 * spacing)
+    return _Scales(spacing, distance, thickness, tol)
+
+
+def _support_shapes(
+    xy: Array,
+    islands: list[Island],
+    params: SupportParams,
+    sc: _Scales,
+    rng: np.random.Generator,
+) -> list[dict]:
+    """Section shapes of the supports: column / pier islands, half-columns on walls."""
+    shapes: list[dict] = []
+    wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
+    wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
+    for isl in islands:
+        if isl.kind == "column" and wall_tree is not None:
+            eng = _detached_half_column(xy[isl.index], isl, wall_tree, sc.distance)
+            if eng is not None:
+                shapes.append(eng)
+                continue
+        if isl.kind in ("column", "pier"):
+            shapes.append(
+                {
+                    "class": isl.kind,
+                    "centre": isl.center,
+                    "radius": isl.radius,
+                    "half": isl.size / 2,
+                    "angle": isl.angle,
+                    "circularity": isl.circularity,
+                }
+            )
+        elif isl.kind == "wall" and params.engaged:
+            for c, r, nrm, d, face_rms in _engaged_on_wall(
+                xy[isl.index], params, sc.tol, sc.distance, rng
+            ):
+                shapes.append(
+                    {
+                        "class": "engaged_column",
+                        "centre": c,
+                        "radius": r,
+                        "half": np.array([r, r]),
+                        "angle": 0.0,
+                        "normal": nrm,
+                        "d": d,
+                        "face_gap": max(0.01, 3 * face_rms),
+                        "circularity": float("nan"),
+                    }
+                )
+    shapes = _dedupe(shapes)
+    for sh in shapes:
+        sh["buffer"] = max(params.buffer_min_m, params.buffer_fraction * float(np.max(sh["half"])))
+    return shapes
+
+
+_RING_M = 0.3  # width of the ring around a cookie that tells floor and ceiling heights
+
+
+def _cookies(
+    p: Array, shapes: list[dict], params: SupportParams
+) -> list[tuple[NDArray[np.intp], Array, Array]]:
+    """Points within buffer + ring of each shape: (indices, offset rho, angle) per shape.
+
+    A point near several shapes (twin columns on one plinth) goes to the one it is
+    closest to, relative to the buffers.  Uses a 2D cell index on the points near any
+    shape only, so the cost is one pass over the cloud plus a sort of a few %.
+    """
+    cell = 0.25
+    xy0 = p[:, :2].min(axis=0)
+    ij = np.floor((p[:, :2] - xy0) / cell).astype(np.int64)
+    width = int(ij[:, 0].max()) + 1
+    height = int(ij[:, 1].max()) + 1
+    keys = ij[:, 1] * width + ij[:, 0]
+    near = np.zeros((height, width), dtype=bool)
+    boxes = []
+    for sh in shapes:
+        reach = float(np.hypot(*sh["half"])) + sh["buffer"] + _RING_M
+        lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
+        hi = np.minimum(
+            np.floor((sh["centre"] + reach - xy0) / cell).astype(int), [width - 1, height - 1]
+        )
+        near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
+        boxes.append((lo, hi))
+    cand = np.flatnonzero(near.ravel()[keys])
+    korder = cand[np.argsort(keys[cand], kind="stable")]
+    ksorted = keys[korder]
+    sid_l, idx_l, rho_l, ang_l = [], [], [], []
+    for sid, (sh, (lo, hi)) in enumerate(zip(shapes, boxes, strict=True)):
+        parts = []
+        for row in range(lo[1], hi[1] + 1):  # loop over grid rows of one support
+            a = np.searchsorted(ksorted, row * width + lo[0], side="left")
+            b = np.searchsorted(ksorted, row * width + hi[0], side="right")
+            parts.append(korder[a:b])
+        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
+        rho, ang = _offset(p[idx, :2], sh)
+        keep = rho <= sh["buffer"] + _RING_M
+        sid_l.append(np.full(keep.sum(), sid))
+        idx_l.append(idx[keep])
+        rho_l.append(rho[keep])
+        ang_l.append(ang[keep])
+    sid_all, idx_all = np.concatenate(sid_l), np.concatenate(idx_l)
+    rho_all, ang_all = np.concatenate(rho_l), np.concatenate(ang_l)
+    bufs = np.array([sh["buffer"] for sh in shapes])
+    srt = np.lexsort((rho_all / bufs[sid_all], idx_all))
+    pick = srt[np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]]
+    sid_all, idx_all, rho_all, ang_all = sid_all[pick], idx_all[pick], rho_all[pick], ang_all[pick]
+    grp = np.argsort(sid_all, kind="stable")
+    bounds = np.r_[0, np.cumsum(np.bincount(sid_all, minlength=len(shapes)))]
+    out = []
+    for sid in range(len(shapes)):
+        sel = grp[bounds[sid] : bounds[sid + 1]]
+        out.append((idx_all[sel], rho_all[sel], ang_all[sel]))
+    return out
+
+
+def _floor_ceiling(
+    p: Array,
+    idx: NDArray[np.intp],
+    ring: NDArray[np.bool_],
+    h_sec: float,
+    sc: _Scales,
+    z_min: float,
+) -> tuple[float, float]:
+    """Floor under a support and the lowest covering surface above it (inf if open sky).
+
+    Floor: a low quantile of the ring points below the section.  Ceiling: per 10 cm
+    cell of the ring, the highest point; when most cells are covered above the section
+    (flat ceiling, vault, any non-planar ceiling), a low quantile of those maxima.
+    """
+    z = p[idx, 2]
+    below = z < h_sec
+    floor_pts = z[below & ring] if np.count_nonzero(below & ring) >= 10 else z[below]
+    floor_z = float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z_min
+    ceil_z = np.inf
+    rz = p[idx[ring]]
+    if len(rz):
+        cij = np.floor((rz[:, :2] - rz[:, :2].min(axis=0)) / 0.1).astype(np.int64)
+        ck = cij[:, 1] * (int(cij[:, 0].max()) + 1) + cij[:, 0]
+        uk, inv = np.unique(ck, return_inverse=True)
+        cmax = np.full(len(uk), -np.inf)
+        np.maximum.at(cmax, inv.ravel(), rz[:, 2])
+        covered = cmax > h_sec + sc.thickness
+        if covered.mean() >= 0.5:
+            ceil_z = float(np.quantile(cmax[covered], 0.1))
+    return floor_z, ceil_z
+
+
+def _extract_support(
+    p: Array,
+    idx: NDArray[np.intp],
+    rho: Array,
+    ang: Array,
+    sh: dict,
+    params: SupportParams,
+    sc: _Scales,
+    h_sec: float,
+    z_range: tuple[float, float],
+) -> tuple[NDArray[np.intp], Array] | None:
+    """The points of one support inside its cookie, or None if it is not one."""
+    ring = rho > sh["buffer"]
+    floor_z, ceil_z = _floor_ceiling(p, idx, ring, h_sec, sc, z_range[0])
+    z = p[idx, 2]
+    inside = ~ring & (z > floor_z + params.floor_tolerance_m)
+    inside &= z < ceil_z - params.ceiling_tolerance_m
+    if sh["class"] == "engaged_column":
+        front = p[idx, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
+        inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
+    cidx = idx[inside]
+    if len(cidx) < params.min_points:
+        return None
+    # clutter: only what is within tol of the innermost surface of each layer x sector
+    n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * sc.spacing)))
+    layer = max(0.05, 3.0 * sc.spacing)
+    keep = _sector_filter(rho[inside], ang[inside], p[cidx, 2], layer, min(n_sec, 72), sc.tol)
+    cidx, crho = cidx[keep], rho[inside][keep]
+    if len(cidx) < params.min_points:
+        return None
+    # final clustering: keep what is connected to the section island
+    lab = voxel_clusters(p[cidx], max(0.03, 3.0 * sc.spacing), 1)
+    in_sec = np.abs(p[cidx, 2] - h_sec) <= sc.thickness / 2
+    good = np.unique(lab[in_sec & (lab > 0)])
+    if len(good) == 0:
+        return None
+    conn = np.isin(lab, good)
+    cidx, crho = cidx[conn], crho[conn]
+    zz = p[cidx, 2]
+    top_ref = min(ceil_z, z_range[1])
+    if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
+        return None  # a chair, a sign board, a fence post: not a support
+    return cidx, crho
 
 
 def _detached_half_column(
