@@ -23,6 +23,8 @@ from pyheracles.ground import (
     height_above_ground,
     measure_scene,
 )
+from pyheracles.groundfilters.csf import csf
+from pyheracles.groundfilters.smrf import low_outliers
 from pyheracles.groundfilters.surface import Grid, inpaint
 
 
@@ -131,7 +133,25 @@ def test_auto_csf_params_follow_slope_and_spacing(rng: np.random.Generator) -> N
     steep = measure_scene(terrain_with_buildings(rng, slope=0.6)[0])
     assert auto_csf_params(flat).rigidness == 3
     assert auto_csf_params(steep).rigidness == 1
-    assert auto_csf_params(flat).cloth_resolution_m == pytest.approx(0.5, abs=0.06)
+    assert auto_csf_params(flat).cloth_resolution_m == 1.0  # never finer than the default
+    assert auto_csf_params(flat).remove_low_outliers
+
+
+def test_low_outliers_are_found_and_kept_out_of_the_cloth(rng: np.random.Generator) -> None:
+    xyz, truth = terrain_with_buildings(rng)
+    sunk = rng.choice(np.flatnonzero(truth), 40, replace=False)
+    xyz = xyz.copy()
+    xyz[sunk, 2] -= rng.uniform(10, 60, sunk.size)  # multipath points far below ground
+    truth = truth.copy()
+    truth[sunk] = False
+    found = np.flatnonzero(low_outliers(xyz))
+    assert set(found) <= set(sunk.tolist())  # no ground, wall or roof point flagged
+    assert found.size >= 0.9 * sunk.size  # (two outliers side by side hide each other)
+    plain = csf(xyz, CSFParams())
+    cleaned = csf(xyz, CSFParams(remove_low_outliers=True))
+    assert not cleaned[sunk].any()
+    # each outlier held the inverted cloth up around it: ground was lost there
+    assert error_rates(truth, cleaned)[0] < error_rates(truth, plain)[0]
 
 
 def test_params_override_and_determinism(rng: np.random.Generator) -> None:

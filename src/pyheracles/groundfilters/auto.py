@@ -108,12 +108,14 @@ def measure_scene(
 def auto_csf_params(scene: SceneMeasures) -> CSFParams:
     """CSF parameters for a measured scene.
 
-    - cloth resolution: the point spacing, at least 0.5 m and at most 2 m (the CSF paper
-      uses 0.5-2 m on airborne data; a finer cloth than the points only adds cost);
+    - cloth resolution: the point spacing, at least 1 m (the package default: a finer
+      cloth costs quadratically more and on AHN3 (spacing 0.25 m) a 0.5 m cloth lost
+      precision, 0.88 against 0.93) and at most 2 m;
+    - low outliers left out of the simulation (:attr:`CSFParams.remove_low_outliers`);
     - rigidness from the terrain slope (CSF's scene types: steep 1, relief 2, flat 3);
     - class threshold: 0.5 m plus the height change of the terrain over half a cloth cell.
     """
-    resolution = round(float(np.clip(scene.spacing_m, 0.5, 2.0)), 2)
+    resolution = round(float(np.clip(scene.spacing_m, 1.0, 2.0)), 2)
     if scene.slope > 0.35:
         rigidness = 1
     elif scene.slope > 0.15:
@@ -126,6 +128,7 @@ def auto_csf_params(scene: SceneMeasures) -> CSFParams:
         rigidness=rigidness,
         class_threshold_m=round(threshold, 3),
         slope_smooth=True,
+        remove_low_outliers=True,
     )
 
 

@@ -43,6 +43,11 @@ class CSFParams:
         Simulation time step (0.65).
     slope_smooth
         Post-process the cloth on steep slopes (``bSloopSmooth``; True).
+    remove_low_outliers
+        Leave points far below the terrain out of the simulation (they become off-ground):
+        each one holds the inverted cloth up like a tent pole. Not part of CSF (False, the
+        package's behaviour); the automatic parameters switch it on. See
+        :func:`~pyheracles.groundfilters.smrf.low_outliers`.
     """
 
     cloth_resolution_m: float = 1.0
@@ -51,6 +56,7 @@ class CSFParams:
     iterations: int = 500
     time_step: float = 0.65
     slope_smooth: bool = True
+    remove_low_outliers: bool = False
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.cloth_resolution_m) and self.cloth_resolution_m > 0):
@@ -122,11 +128,16 @@ def csf(xyz: NDArray[np.float64], params: CSFParams | None = None) -> NDArray[np
     sim.params.class_threshold = float(p.class_threshold_m)
     sim.params.interations = int(p.iterations)
     sim.params.time_step = float(p.time_step)
+    keep = np.arange(xyz.shape[0])
+    if p.remove_low_outliers:
+        from pyheracles.groundfilters.smrf import low_outliers
+
+        keep = np.flatnonzero(~low_outliers(xyz))
     ground = CSF.VecInt()
     off_ground = CSF.VecInt()
     with _quiet_stdout():
-        sim.setPointCloud(np.ascontiguousarray(xyz, dtype=np.float64))
+        sim.setPointCloud(np.ascontiguousarray(xyz[keep], dtype=np.float64))
         sim.do_filtering(ground, off_ground, False)  # False: do not write the cloth to a file
     mask = np.zeros(xyz.shape[0], dtype=bool)
-    mask[np.asarray(ground, dtype=np.intp)] = True
+    mask[keep[np.asarray(ground, dtype=np.intp)]] = True
     return mask

@@ -28,7 +28,7 @@ from scipy import ndimage
 from pyheracles.errors import InputError
 from pyheracles.groundfilters.surface import DTM, Grid, RasterSampler, inpaint, rasterise
 
-__all__ = ["SMRFParams", "smrf"]
+__all__ = ["SMRFParams", "low_outliers", "progressive_filter", "smrf"]
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
 
@@ -115,6 +115,36 @@ def progressive_filter(
         is_object |= (last - opened) > slope * radius * cell_m
         last = opened
     return is_object
+
+
+def low_outliers(
+    xyz: NDArray[np.float64], *, cell_m: float = 1.0, drop_m: float = 5.0
+) -> NDArray[np.bool_]:
+    """Points far below the terrain (multipath, "negative blunders").
+
+    A point is a low outlier when it lies more than ``drop_m`` below the lowest point of
+    every occupied neighbouring cell (the 8 cells around its own, ``cell_m`` wide). Ground
+    beside a wall or in a one-cell alley keeps a neighbour at its own level and is not
+    flagged; an isolated pit is. The ISPRS samples hold such points down to 98 m below the
+    ground; for the Cloth Simulation Filter each one is a tent pole that holds the inverted
+    cloth away from the ground around it.
+
+    Returns
+    -------
+    numpy.ndarray
+        (N,) bool, True for low outliers.
+    """
+    xy = xyz[:, :2]
+    grid = Grid.covering(xy, cell_m)
+    zmin = rasterise(grid, xy, xyz[:, 2], "min")
+    ring = np.ones((3, 3), dtype=bool)
+    ring[1, 1] = False
+    neighbour_min = ndimage.minimum_filter(
+        np.where(np.isnan(zmin), np.inf, zmin), footprint=ring, mode="constant", cval=np.inf
+    )
+    row, col = grid.index(xy)
+    floor = neighbour_min[row, col]
+    return np.isfinite(floor) & (xyz[:, 2] < floor - drop_m)
 
 
 def smrf(
