@@ -127,10 +127,12 @@ def bench_demo(points: int) -> None:
 
 
 def _ours(cloud_path: str, specs: list[str], out: str, queue: mp.Queue) -> None:
-    from pyheracles.cli.complex import run_complex
+    from pyheracles.pipeline import complex_from_files
 
     start = time.perf_counter()
-    res, _, timings = run_complex(Path(cloud_path), specs, Path(out), params=ComplexParams())
+    res, _, timings, _ = complex_from_files(
+        Path(cloud_path), specs, Path(out), params=ComplexParams()
+    )
     total = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     queue.put(
@@ -155,9 +157,9 @@ def _naive(
     import shapely
     from sklearn.cluster import DBSCAN
 
-    from pyheracles.cli.complex import parse_layer_spec
     from pyheracles.ground import extract_ground
     from pyheracles.io import read_cloud, read_layer
+    from pyheracles.pipeline import parse_layer_spec
 
     cloud = read_cloud(cloud_path)
     pool = ~extract_ground(cloud.xyz, method="auto").mask

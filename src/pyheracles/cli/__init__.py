@@ -28,6 +28,7 @@ COMMAND_MODULES: list[str] = [
     "framework",
     "ground",
     "registration",
+    "pipeline",
 ]
 
 app = typer.Typer(

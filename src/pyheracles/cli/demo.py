@@ -41,10 +41,10 @@ def register(app: typer.Typer) -> None:
 
 def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
     """Generate, write, segment, evaluate and draw; returns what the summary prints."""
-    from pyheracles.cli.complex import run_complex
     from pyheracles.complex import ComplexParams
     from pyheracles.evaluate import evaluate_objects, ground_scores
     from pyheracles.io.atomic import atomic_path, atomic_write_json
+    from pyheracles.pipeline import complex_from_files
     from pyheracles.progress import enabled
     from pyheracles.report.overview import plot_complex_overview
     from pyheracles.synthetic.complex_scene import (
@@ -58,7 +58,7 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
         files = write_scene(scene, outdir / "scene")
     specs = [f"{name}={files[name]}" for name in scene.layers]
     with enabled(console):
-        result, paths, timings = run_complex(
+        result, paths, timings, _ = complex_from_files(
             files["cloud"], specs, outdir / "result", params=ComplexParams(), per_object="fid"
         )
     seg = result.segmentation
