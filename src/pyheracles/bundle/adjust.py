@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.sparse as sp
 
 from pyheracles.bundle.camera import FORWARD_MODEL, IO_NAMES, MODELS, image_residuals
 from pyheracles.bundle.initial import (
@@ -27,6 +26,7 @@ from pyheracles.bundle.initial import (
     spatial_resection,
 )
 from pyheracles.bundle.project import Project
+from pyheracles.bundle.schur import PointCameraSystem
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
 
 __all__ = ["BundleParameters", "BundleResult", "bundle_adjust", "prepare_network"]
@@ -374,115 +374,16 @@ def _residuals(net: Network, st: _State, jacobian: bool = False):
     return r, jac
 
 
-@dataclass
-class _Normal:
-    """Schur-reduced normal equations at one point of the parameter space."""
-
-    a_inv: np.ndarray  # (N,3,3) inverse point blocks (fixed coordinates masked)
-    b: sp.csr_matrix  # (3N, nc) point-camera coupling
-    t: sp.csr_matrix  # a_inv @ b
-    s: np.ndarray  # (nc,nc) reduced camera matrix
-    g_op: np.ndarray  # (N,3) J^T r point part
-    g_cam: np.ndarray  # (nc,) J^T r camera part
-    diag_a: np.ndarray  # (N,3)
-    a: np.ndarray  # (N,3,3)
-    c: np.ndarray  # (nc,nc) camera block of J^T J
-
-
-def _normal_equations(net: Network, st: _State, r: np.ndarray, jac) -> _Normal:
-    p = net.project
-    d_xyz, d_eo, d_io = jac
-    w = net.sqrt_w[:, :, None]
-    jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
-    je = d_eo * w
-    ji = d_io * w
-    m = jp.shape[0]
-    npt = p.n_points
-    r_img = r[: 2 * m].reshape(m, 2)
-    # Point blocks A_i = sum Jp^T Jp, gradient g_i = sum Jp^T r.
-    jtj = np.einsum("mki,mkj->mij", jp, jp)
-    a = np.zeros((npt, 3, 3))
-    for i in range(3):
-        for j in range(i, 3):
-            a[:, i, j] = np.bincount(p.obs_point, weights=jtj[:, i, j], minlength=npt)
-            a[:, j, i] = a[:, i, j]
-    jtr = np.einsum("mki,mk->mi", jp, r_img)
-    g_op = np.column_stack(
-        [np.bincount(p.obs_point, weights=jtr[:, i], minlength=npt) for i in range(3)]
-    )
-    # Weighted object-point priors.
-    op_m = np.isfinite(net.op_prior_std)
-    if np.any(op_m):
-        wgt = np.where(op_m, 1.0 / net.op_prior_std**2, 0.0)
-        resid = np.where(op_m, (st.xyz - net.op_prior) / net.op_prior_std**2, 0.0)
-        a[:, [0, 1, 2], [0, 1, 2]] += wgt
-        g_op += resid
-    # Fixed coordinates: identity rows, zero gradient.
-    fixed = ~net.op_free
-    a[fixed.nonzero()[0], fixed.nonzero()[1], fixed.nonzero()[1]] = 1.0
-    g_op[fixed] = 0.0
-    diag_a = a[:, [0, 1, 2], [0, 1, 2]].copy()
-
-    # Camera columns of each observation.
-    cols = np.concatenate([net.io_col[net.obs_cam], net.eo_col[p.obs_image]], axis=1)  # (m,16)
-    jc = np.concatenate([ji, je], axis=2)  # (m,2,16)
-    valid = cols >= 0
-    nc = net.n_cam_cols
-    rows = np.repeat(np.arange(2 * m).reshape(m, 2, 1), cols.shape[1], axis=2)
-    colb = np.broadcast_to(cols[:, None, :], jc.shape)
-    vb = np.broadcast_to(valid[:, None, :], jc.shape)
-    jc_sp = sp.csr_matrix((jc[vb], (rows[vb], colb[vb])), shape=(2 * m, nc))
-    prow = np.repeat(np.arange(2 * m).reshape(m, 2, 1), 3, axis=2)
-    pcol = (3 * p.obs_point)[:, None, None] + np.arange(3)[None, None, :]
-    pcol = np.broadcast_to(pcol, jp.shape)
-    jp_sp = sp.csr_matrix((jp.ravel(), (prow.ravel(), pcol.ravel())), shape=(2 * m, 3 * npt))
-    c = (jc_sp.T @ jc_sp).toarray()
-    g_cam = jc_sp.T @ r_img.ravel()
-    b = (jp_sp.T @ jc_sp).tocsr()
-    # Weighted EO priors.
-    eo_m = np.isfinite(net.eo_prior_std)
-    if np.any(eo_m):
-        idx = net.eo_col[eo_m]
-        c[idx, idx] += 1.0 / net.eo_prior_std[eo_m] ** 2
-        g_cam[idx] += (st.eo[eo_m] - net.eo_prior[eo_m]) / net.eo_prior_std[eo_m] ** 2
-    return _Normal(
-        a_inv=np.empty(0),
-        b=b,
-        t=sp.csr_matrix((3 * npt, nc)),
-        s=np.empty(0),
-        g_op=g_op,
-        g_cam=g_cam,
-        diag_a=diag_a,
-        a=a,
-        c=c,
-    )
-
-
-def _reduce(ne: _Normal, lam: float = 0.0) -> None:
-    """Form the Schur complement (optionally with Marquardt damping ``lam``)."""
-    a = ne.a
-    c = ne.c
-    if lam > 0:
-        a = a.copy()
-        a[:, [0, 1, 2], [0, 1, 2]] *= 1.0 + lam
-        c = c.copy()
-        c[np.diag_indices_from(c)] *= 1.0 + lam
-    det = np.linalg.det(a)
-    scale = np.einsum("nii->n", a) ** 3
-    bad = ~(np.abs(det) > 1e-14 * np.abs(scale))
-    if np.any(bad):
+def _singular_points(project: Project):
+    def fail(idx: np.ndarray) -> None:
         raise DegenerateGeometryError(
-            f"{int(bad.sum())} object point(s) are undetermined (singular 3x3 normal block: "
-            f"rays parallel or from one centre), point indices {np.flatnonzero(bad)[:10].tolist()}",
+            f"{len(idx)} object point(s) are undetermined (singular 3x3 normal block: rays "
+            f"parallel or from one centre), ids {project.point_ids[idx][:10].tolist()}",
+            path=project.source,
             hint="remove these points or add images with a wider base",
         )
-    ne.a_inv = np.linalg.inv(a)
-    npt = a.shape[0]
-    ainv_sp = sp.bsr_matrix(
-        (ne.a_inv, np.arange(npt), np.arange(npt + 1)), shape=(3 * npt, 3 * npt)
-    ).tocsr()
-    ne.t = (ainv_sp @ ne.b).tocsr()
-    ne.s = c - (ne.b.T @ ne.t).toarray()
+
+    return fail
 
 
 def _cholesky(s: np.ndarray):
@@ -498,16 +399,11 @@ def _cholesky(s: np.ndarray):
     return fac, d
 
 
-def _solve(ne: _Normal, fac, d) -> tuple[np.ndarray, np.ndarray]:
+def _solve(ne: PointCameraSystem, fac, d) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Newton step (dx_op (N,3), dx_cam (nc,)) for N dx = -J^T r."""
-    rhs = -(ne.g_cam - ne.t.T @ ne.g_op.ravel())
-    if rhs.size:
-        dc = scipy.linalg.cho_solve(fac, rhs / d, check_finite=False) / d
-    else:
-        dc = rhs
-    tmp = -ne.g_op.ravel() - ne.b @ dc
-    dp = np.einsum("nij,nj->ni", ne.a_inv, tmp.reshape(-1, 3))
-    return dp, dc
+    rhs = ne.reduced_rhs()
+    dc = scipy.linalg.cho_solve(fac, rhs / d, check_finite=False) / d if rhs.size else rhs
+    return ne.back_substitute(dc), dc
 
 
 def _apply(net: Network, st: _State, dp: np.ndarray, dc: np.ndarray, alpha: float) -> _State:
@@ -620,8 +516,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     status = "ok"
     lam = params.lm_lambda0 if params.damping == "lm" else 0.0
     while True:
-        ne = _normal_equations(net, st, r, jac)
-        _reduce(ne)
+        ne = PointCameraSystem.build(net, st, r, jac)
+        ne.reduce(raise_singular=_singular_points(p))
         fac, d = _cholesky(ne.s)
         if fac is None:
             deficiency = _rank_report(net, ne.s)
@@ -662,11 +558,10 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
             alphas.append(alpha)
         else:  # Levenberg-Marquardt (Marquardt scaling of the diagonal)
             while True:
-                ne_l = _Normal(**{k: getattr(ne, k) for k in ne.__dataclass_fields__})
-                _reduce(ne_l, lam)
-                fac_l, d_l = _cholesky(ne_l.s)
+                ne.reduce(lam)
+                fac_l, d_l = _cholesky(ne.s)
                 if fac_l is not None:
-                    dpl, dcl = _solve(ne_l, fac_l, d_l)
+                    dpl, dcl = _solve(ne, fac_l, d_l)
                     trial = _apply(net, st, dpl, dcl, 1.0)
                     rt, _ = _residuals(net, trial)
                     if float(rt @ rt) < 2 * f0:
@@ -727,7 +622,7 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     return result
 
 
-def _posterior(res: BundleResult, ne: _Normal, fac, d, chunk: int = 20000) -> None:
+def _posterior(res: BundleResult, ne: PointCameraSystem, fac, d) -> None:
     """Posterior covariance: camera block and each point's 3x3 block, times sigma0^2."""
     net = res.network
     s02 = res.sigma0**2
@@ -737,24 +632,7 @@ def _posterior(res: BundleResult, ne: _Normal, fac, d, chunk: int = 20000) -> No
         cov_cam = inv_scaled / d[:, None] / d[None, :]
     else:
         cov_cam = np.zeros((0, 0))
-    # Point blocks: A^-1 + T_i S^-1 T_i^T, computed in chunks of rows of T.
-    npt = ne.a_inv.shape[0]
-    cov_p = ne.a_inv.copy()
-    t = ne.t
-    for start in range(0, npt, chunk):
-        stop = min(npt, start + chunk)
-        tb = t[3 * start : 3 * stop]
-        y = np.asarray(tb @ cov_cam)  # (3k, nc)
-        coo = tb.tocoo()
-        k = stop - start
-        pt = coo.row // 3
-        base = pt * 9 + coo.row % 3
-        acc = np.zeros(9 * k)
-        for b_idx in range(3):
-            vals = coo.data * y[3 * pt + b_idx, coo.col]
-            acc += np.bincount(base + 3 * b_idx, weights=vals, minlength=9 * k)
-        acc = acc.reshape(k, 3, 3)
-        cov_p[start:stop] += acc
+    cov_p = ne.point_covariances(cov_cam)
     fixed = ~net.op_free
     cov_p[fixed.nonzero()[0], fixed.nonzero()[1], :] = 0.0
     cov_p[fixed.nonzero()[0], :, fixed.nonzero()[1]] = 0.0
@@ -770,7 +648,7 @@ def _posterior(res: BundleResult, ne: _Normal, fac, d, chunk: int = 20000) -> No
     res.xyz_std = np.sqrt(np.clip(np.einsum("nii->ni", res.cov_xyz), 0, None))
 
 
-def _redundancy_numbers(res: BundleResult, ne: _Normal, jac, chunk: int = 20000) -> np.ndarray:
+def _redundancy_numbers(res: BundleResult, ne: PointCameraSystem, jac, chunk=20000):
     """Redundancy number of every image coordinate: 1 - diag(J Q J^T) (weighted).
 
     ``Q = N^-1`` is assembled per observation from the point block, the camera
@@ -781,30 +659,28 @@ def _redundancy_numbers(res: BundleResult, ne: _Normal, jac, chunk: int = 20000)
     p = net.project
     d_xyz, d_eo, d_io = jac
     w = net.sqrt_w[:, :, None]
-    s02 = res.sigma0**2
-    q_cam = res.cov_cam / s02 if res.cov_cam is not None and s02 > 0 else res.cov_cam
-    cols = np.concatenate([net.io_col[net.obs_cam], net.eo_col[p.obs_image]], axis=1)
+    s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
+    q_cam = res.cov_cam / s02
+    union = np.flatnonzero(net.io_free.any(axis=0))
+    cols = np.concatenate([net.io_col[net.obs_cam][:, union], net.eo_col[p.obs_image]], axis=1)
     valid = cols >= 0
-    jc = np.concatenate([d_io, d_eo], axis=2) * w * valid[:, None, :]
+    jc = np.concatenate([d_io[:, :, union], d_eo], axis=2) * w * valid[:, None, :]
     jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
-    colz = np.where(valid, cols, 0)
+    q_pc_all = ne.cross_covariances(q_cam, cols)  # (m,3,L)
+    qz = np.zeros((q_cam.shape[0] + 1,) * 2)
+    qz[:-1, :-1] = q_cam
+    cz = np.where(valid, cols, q_cam.shape[0])
     m = jp.shape[0]
     out = np.empty((m, 2))
     for start in range(0, m, chunk):
         sl = slice(start, min(m, start + chunk))
-        pts = p.obs_point[sl]
-        q_pp = res.cov_xyz[pts] / s02  # (k,3,3)
-        c = colz[sl]
-        q_cc = q_cam[c[:, :, None], c[:, None, :]]  # (k,16,16)
-        rows = 3 * pts[:, None] + np.arange(3)[None, :]  # (k,3)
-        t_rows = ne.t[rows.ravel()]  # (3k, nc) sparse
-        q_pc = -np.asarray(t_rows @ q_cam).reshape(-1, 3, q_cam.shape[0])  # (k,3,nc)
-        q_pc = np.take_along_axis(q_pc, c[:, None, :], axis=2)  # (k,3,16)
+        q_pp = res.cov_xyz[p.obs_point[sl]] / s02
+        q_cc = qz[cz[sl][:, :, None], cz[sl][:, None, :]]
         a, b = jp[sl], jc[sl]
         h = (
             np.einsum("kri,kij,krj->kr", a, q_pp, a)
             + np.einsum("kri,kij,krj->kr", b, q_cc, b)
-            + 2 * np.einsum("kri,kij,krj->kr", a, q_pc, b)
+            + 2 * np.einsum("kri,kij,krj->kr", a, q_pc_all[sl], b)
         )
         out[sl] = 1.0 - h
     return out
