@@ -44,24 +44,26 @@ def _chunks(n: int, size: int = _CHUNK):
 
 
 class _Scatter:
-    """Accumulate small dense blocks into a dense (n,n) matrix via bincount."""
+    """Accumulate small dense blocks into a dense (n,n) matrix.
+
+    Index -1 (a fixed parameter) goes to a dummy row/column n that is dropped.
+    """
 
     def __init__(self, n: int) -> None:
         self.n = n
-        self.flat = np.zeros(n * n)
+        self.flat = np.zeros((n + 1) * (n + 1))
 
     def add(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
-        """rows (k,a), cols (k,b), vals (k,a,b); -1 indices are skipped."""
-        r = np.broadcast_to(rows[:, :, None], vals.shape)
-        c = np.broadcast_to(cols[:, None, :], vals.shape)
-        ok = (r >= 0) & (c >= 0)
-        if not np.any(ok):
-            return
-        idx = r[ok] * self.n + c[ok]
-        self.flat += np.bincount(idx, weights=vals[ok], minlength=self.n * self.n)
+        """rows (k,a), cols (k,b), vals (k,a,b)."""
+        n1 = self.n + 1
+        r = np.where(rows >= 0, rows, self.n)
+        c = np.where(cols >= 0, cols, self.n)
+        idx = r[:, :, None] * n1 + c[:, None, :]
+        # np.add.at costs O(k); a bincount with minlength n^2 would cost O(n^2) per call.
+        np.add.at(self.flat, idx.ravel(), vals.ravel())
 
     def matrix(self) -> np.ndarray:
-        return self.flat.reshape(self.n, self.n)
+        return self.flat.reshape(self.n + 1, self.n + 1)[: self.n, : self.n]
 
 
 @dataclass
@@ -108,7 +110,7 @@ class PointCameraSystem:
         eo_cols = net.eo_col[p.obs_image]  # (m,6)
         nc = net.n_cam_cols
         # Point blocks and gradient.
-        jtj = np.einsum("mki,mkj->mij", jp, jp)
+        jtj = jp.transpose(0, 2, 1) @ jp
         a = np.zeros((npt, 3, 3))
         for i in range(3):
             for j in range(i, 3):
@@ -134,7 +136,7 @@ class PointCameraSystem:
         for sl in _chunks(m):
             jc = np.concatenate([ji[sl], je[sl]], axis=2)
             cols = np.concatenate([io_cols_obs[sl], eo_cols[sl]], axis=1)
-            sc.add(cols, cols, np.einsum("mki,mkj->mij", jc, jc))
+            sc.add(cols, cols, jc.transpose(0, 2, 1) @ jc)
         c = sc.matrix().copy()
         g_cam = np.zeros(nc + 1)
         jtr_c = np.concatenate(
@@ -150,12 +152,12 @@ class PointCameraSystem:
             c[idx, idx] += 1.0 / net.eo_prior_std[eo_m] ** 2
             g_cam[idx] += (st.eo[eo_m] - net.eo_prior[eo_m]) / net.eo_prior_std[eo_m] ** 2
         # Coupling blocks.
-        b_eo = np.einsum("mki,mkj->mij", jp, je)  # (m,3,6)
+        b_eo = jp.transpose(0, 2, 1) @ je  # (m,3,6)
         ncam = len(p.cameras)
         gkey = p.obs_point * ncam + net.obs_cam
         ukeys, ginv = np.unique(gkey, return_inverse=True)
         n_grp = len(ukeys)
-        bio_obs = np.einsum("mki,mkj->mij", jp, ji)  # (m,3,q)
+        bio_obs = jp.transpose(0, 2, 1) @ ji  # (m,3,q)
         q = len(union)
         b_io = np.zeros((n_grp, 3, q))
         for i in range(3):
@@ -229,29 +231,28 @@ class PointCameraSystem:
         sc = _Scatter(self.nc)
         pt_obs = self.obs_point
         # EO-EO: diagonal (k, k) and the pairs (k, l), (l, k).
+        t_eo = ainv[pt_obs] @ self.b_eo
         for sl in _chunks(len(pt_obs)):
-            t = np.einsum("mij,mjk->mik", ainv[pt_obs[sl]], self.b_eo[sl])
             sc.add(self.eo_cols[sl], self.eo_cols[sl],
-                   -np.einsum("mia,mib->mab", self.b_eo[sl], t))  # fmt: skip
+                   -self.b_eo[sl].transpose(0, 2, 1) @ t_eo[sl])  # fmt: skip
         for k, l_ in self._pairs_obs_obs():
             for sl in _chunks(len(k)):
                 kk, ll = k[sl], l_[sl]
-                t = np.einsum("mij,mjk->mik", ainv[pt_obs[ll]], self.b_eo[ll])
-                blk = -np.einsum("mia,mib->mab", self.b_eo[kk], t)
+                blk = -self.b_eo[kk].transpose(0, 2, 1) @ t_eo[ll]
                 sc.add(self.eo_cols[kk], self.eo_cols[ll], blk)
                 sc.add(self.eo_cols[ll], self.eo_cols[kk], blk.transpose(0, 2, 1))
         if self.b_io.shape[2]:
             gp = self.group_point
-            t_io = np.einsum("gij,gjk->gik", ainv[gp], self.b_io)
-            sc.add(self.io_cols, self.io_cols, -np.einsum("gia,gib->gab", self.b_io, t_io))
+            t_io = ainv[gp] @ self.b_io
+            sc.add(self.io_cols, self.io_cols, -self.b_io.transpose(0, 2, 1) @ t_io)
             for g, h in self._pairs_grp_grp():
-                blk = -np.einsum("gia,gib->gab", self.b_io[g], t_io[h])
+                blk = -self.b_io[g].transpose(0, 2, 1) @ t_io[h]
                 sc.add(self.io_cols[g], self.io_cols[h], blk)
                 sc.add(self.io_cols[h], self.io_cols[g], blk.transpose(0, 2, 1))
             for g, k in self._pairs_grp_obs():
                 for sl in _chunks(len(k)):
                     gg, kk = g[sl], k[sl]
-                    blk = -np.einsum("mia,mib->mab", t_io[gg], self.b_eo[kk])
+                    blk = -t_io[gg].transpose(0, 2, 1) @ self.b_eo[kk]
                     sc.add(self.io_cols[gg], self.eo_cols[kk], blk)
                     sc.add(self.eo_cols[kk], self.io_cols[gg], blk.transpose(0, 2, 1))
         self.s = c + sc.matrix()
@@ -289,12 +290,8 @@ class PointCameraSystem:
     def _blocks(self, cov_cam: np.ndarray):
         """T blocks (A^-1 B) of observations (EO) and groups (IO)."""
         ainv = self.a_inv
-        t_eo = np.einsum("mij,mjk->mik", ainv[self.obs_point], self.b_eo)
-        t_io = (
-            np.einsum("gij,gjk->gik", ainv[self.group_point], self.b_io)
-            if self.b_io.shape[2]
-            else None
-        )
+        t_eo = ainv[self.obs_point] @ self.b_eo
+        t_io = ainv[self.group_point] @ self.b_io if self.b_io.shape[2] else None
         return t_eo, t_io
 
     def point_covariances(self, cov_cam: np.ndarray) -> np.ndarray:
@@ -309,7 +306,7 @@ class PointCameraSystem:
 
         def add(pts, ta, ca, tb, cb, sym):
             sub = qz[ca[:, :, None], cb[:, None, :]]  # (k,a,b)
-            blk = np.einsum("kia,kab,kjb->kij", ta, sub, tb)
+            blk = (ta @ sub) @ tb.transpose(0, 2, 1)
             if sym:
                 blk = blk + blk.transpose(0, 2, 1)
             idx = (pts * 9)[:, None] + np.arange(9)[None, :]
@@ -344,18 +341,17 @@ class PointCameraSystem:
         cz = np.where(cols >= 0, cols, self.nc)
         out = np.zeros((m, 3, cols.shape[1]))
         for sl in _chunks(m):
-            out[sl] -= np.einsum("kia,kab->kib", t_eo[sl], qz[ec[sl][:, :, None],
-                                                             cz[sl][:, None, :]])  # fmt: skip
+            out[sl] -= t_eo[sl] @ qz[ec[sl][:, :, None], cz[sl][:, None, :]]
         for k, l_ in self._pairs_obs_obs():
             for sl in _chunks(len(k)):
                 kk, ll = k[sl], l_[sl]
-                v1 = np.einsum("kia,kab->kib", t_eo[ll], qz[ec[ll][:, :, None], cz[kk][:, None, :]])
+                v1 = t_eo[ll] @ qz[ec[ll][:, :, None], cz[kk][:, None, :]]
                 out[kk] -= v1  # unique within one offset
-                v2 = np.einsum("kia,kab->kib", t_eo[kk], qz[ec[kk][:, :, None], cz[ll][:, None, :]])
+                v2 = t_eo[kk] @ qz[ec[kk][:, :, None], cz[ll][:, None, :]]
                 out[ll] -= v2
         if t_io is not None:
             ic = np.where(self.io_cols >= 0, self.io_cols, self.nc)
             for g, k in self._pairs_grp_obs():
-                v = np.einsum("kia,kab->kib", t_io[g], qz[ic[g][:, :, None], cz[k][:, None, :]])
+                v = t_io[g] @ qz[ic[g][:, :, None], cz[k][:, None, :]]
                 out[k] -= v
         return out
