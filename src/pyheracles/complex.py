@@ -381,9 +381,7 @@ def _scattered(
     keys = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     inverse = inverse.ravel()
-    centroids = np.column_stack(
-        [np.bincount(inverse, weights=p[:, j]) / counts for j in range(3)]
-    )
+    centroids = np.column_stack([np.bincount(inverse, weights=p[:, j]) / counts for j in range(3)])
     if len(centroids) < 12:
         return np.zeros(len(pts), dtype=bool)
     _, curvature_v = estimate_normals(centroids, k=12)
@@ -418,7 +416,8 @@ def _object_points(
     if keep.any() and len(loose):
         from scipy.spatial import cKDTree
 
-        # Scattered points near the object join it (roof edges, railings) ...
+        # Scattered points near the object and near the footprint join it
+        # (roof edges, railings) ...
         tree = cKDTree(xyz[cand[keep]])
         dist, _ = tree.query(
             xyz[cand[loose]],
@@ -433,8 +432,13 @@ def _object_points(
         n = np.bincount(sub)
         n_in = np.bincount(sub, weights=near_poly[loose].astype(np.float64), minlength=len(n))
         touching = np.bincount(sub, weights=near.astype(np.float64), minlength=len(n)) > 0
-        whole = touching & (n_in >= 0.5 * np.maximum(n, 1))
-        keep[loose[near | whole[sub]]] = True
+        # a crown over a roof rises above it; roof edges and chimneys do not
+        z = xyz[cand[loose], 2]
+        reach = float(params.attach_distance_m)  # type: ignore[arg-type]
+        top = float(np.percentile(xyz[cand[keep], 2], 99)) + reach
+        below = np.bincount(sub, weights=(z <= top).astype(np.float64), minlength=len(n))
+        whole = touching & (n_in >= 0.5 * np.maximum(n, 1)) & (below >= 0.9 * n)
+        keep[loose[(near & near_poly[loose]) | whole[sub]]] = True
     return keep
 
 
