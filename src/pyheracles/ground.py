@@ -97,7 +97,9 @@ class GroundResult:
         The parameters it ran with (:class:`AutoParams`, :class:`CSFParams`,
         :class:`SMRFParams` or None).
     dtm
-        Terrain model from the ground points (:class:`DTM`), None when there is no ground.
+        Terrain model from the ground points (:class:`DTM`), None when there is no ground
+        (``"auto"``: the surface of the last refinement pass, the one the ground was
+        tested against; otherwise :func:`dtm_from_ground` of the mask).
     scene
         What the automatic mode measured (:class:`SceneMeasures`), None otherwise.
     note
@@ -250,9 +252,12 @@ def extract_ground(
     if method == "auto":
         scene = measure_scene(pts, max_object_size_m=max_object_size_m, slope=False)
     used = _resolve_params(method, params, scene)
+    dtm: DTM | None = None
     if isinstance(used, AutoParams):
         seeds, _ = smrf(pts, used.seed)
-        mask = refine_ground(pts, seeds, used.refine)[0] if seeds.any() else seeds
+        mask = seeds
+        if seeds.any():
+            mask, dtm, _ = refine_ground(pts, seeds, used.refine)
         cell = used.refine.cell_m
     elif isinstance(used, CSFParams):
         mask = csf(pts, used)
@@ -260,15 +265,16 @@ def extract_ground(
     else:
         mask, _ = smrf(pts, used)
         cell = used.cell_m
-    if dtm_cell_m is not None:
-        cell = float(dtm_cell_m)
+    if dtm_cell_m is not None and dtm_cell_m != cell:
+        cell, dtm = float(dtm_cell_m), None
     note = "" if mask.any() else "the filter found no ground point"
     if not note:
         spacing = scene.spacing_m if scene is not None else point_spacing_m(pts[:, :2])
         note = _surface_note(pts, mask, max(cell, spacing))
     if note:
         return GroundResult(np.zeros(n, dtype=bool), method, used, None, scene, note)
-    dtm = dtm_from_ground(pts, mask, cell)
+    if dtm is None:
+        dtm = dtm_from_ground(pts, mask, cell)
     if scene is not None:
         slope = dtm.slope()[dtm.observed]
         scene = replace(scene, slope=float(np.percentile(slope, 90)))
