@@ -133,8 +133,11 @@ def make_network(
     eo = np.asarray(eo)[: p.n_images]
     n = len(eo)
     # Object points on the wall (with relief).
-    px_ = rng.uniform(0, width, p.n_points)
-    pz_ = rng.uniform(0, zs.max() + foot_h / 2, p.n_points)
+    # Oversample: points seen by fewer than two images are dropped below, and the
+    # first n_points of the rest are kept, so the network has exactly n_points.
+    n_cand = int(p.n_points * 1.15) + 10
+    px_ = rng.uniform(0, width, n_cand)
+    pz_ = rng.uniform(0, zs.max() + foot_h / 2, n_cand)
     xyz = np.column_stack([px_, _wall(px_, pz_, p.relief_m), pz_])
     # Project every point into every image (chunked over images).
     rot = rotation_matrix(eo[:, 3:6])
@@ -171,8 +174,9 @@ def make_network(
     uv_mm = np.column_stack([m[:, 0] + io[1], m[:, 1] - io[2]])
     uv_px = np.column_stack([uv_mm[:, 0] / pix, -uv_mm[:, 1] / pix])
     uv_px += rng.normal(0, p.noise_px, uv_px.shape)
-    rays = np.bincount(obs_point, minlength=p.n_points)
+    rays = np.bincount(obs_point, minlength=n_cand)
     keep_pt = rays >= 2
+    keep_pt &= np.cumsum(keep_pt) <= p.n_points
     # Drop points seen once (they carry no information) and re-index.
     new = np.cumsum(keep_pt) - 1
     sel = keep_pt[obs_point]
