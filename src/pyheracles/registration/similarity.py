@@ -523,7 +523,7 @@ def estimate_similarity(
     crit = float(chi2.ppf(1.0 - p.alpha, 3))
     if p.estimator == "l1":
         T2, s2 = stats(fit, np.ones(n, bool))
-        trusted = T2 / s2 <= crit
+        trusted = T2 / s2 <= float(chi2.ppf(1.0 - 1e-6, 3))  # drop only clear blunders
     else:
         trusted = point_w > 0.1  # excludes only clear blunders (e > ~3.3 for Tukey)
     if trusted.sum() < 4:
