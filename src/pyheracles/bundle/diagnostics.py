@@ -164,12 +164,15 @@ def _coverage(uv: np.ndarray, size: tuple[int, int]) -> tuple[float, float]:
 
 
 def image_statistics(result) -> list[dict]:
-    """Per image: observation count, residual RMS (pixels), coverage of the frame."""
+    """Per image: observation count, residual RMS (pixels), coverage of the frame, and the
+    mean of the largest ray intersection angle of the points it sees (degrees)."""
     p = result.project
+    ang = ray_angles(result)[p.obs_point]
     res = result.residuals_px
     sq = np.sum(res**2, axis=1)
     n = np.bincount(p.obs_image, minlength=p.n_images)
     rms = np.sqrt(np.bincount(p.obs_image, weights=sq, minlength=p.n_images) / np.maximum(n, 1))
+    mean_ang = np.bincount(p.obs_image, weights=ang, minlength=p.n_images) / np.maximum(n, 1)
     order = np.argsort(p.obs_image, kind="stable")
     splits = np.cumsum(n)[:-1]
     out = []
@@ -184,6 +187,7 @@ def image_statistics(result) -> list[dict]:
                 "rms_px": float(rms[i]),
                 "coverage_rect": rect,
                 "coverage_hull": hull,
+                "mean_ray_angle_deg": float(mean_ang[i]),
             }
         )
     return out

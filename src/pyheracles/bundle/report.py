@@ -94,7 +94,8 @@ def report_dict(result, *, threshold: float = 0.95, top: int = 20) -> dict:
             "high_correlations": [
                 {"pair": list(c["pair"]), "r": c["r"]} for c in hc["eo"] if c["image_index"] == i
             ],
-            **{k: stats[i][k] for k in ("n_points", "rms_px", "coverage_rect", "coverage_hull")},
+            **{k: stats[i][k] for k in ("n_points", "rms_px", "coverage_rect", "coverage_hull",
+                                        "mean_ray_angle_deg")},
         })  # fmt: skip
     tie = net.op_free.any(axis=1) & (p.point_role == "tie")
     # DBAT's "total standard deviation": sqrt(sX^2 + sY^2 + sZ^2).
