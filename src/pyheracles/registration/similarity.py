@@ -135,6 +135,28 @@ class SimilarityResult:
         p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
         return p @ self.T_target_source[:3, :3].T + self.T_target_source[:3, 3]
 
+    def point_covariance(self, xyz: ArrayLike) -> NDArray[np.float64]:
+        """``(N, 3, 3)`` covariance of transformed points due to the parameter uncertainty.
+
+        First-order propagation ``J C J^T`` of the parameter covariance, with the
+        Jacobian of ``T(x)`` taken by central differences over the 6/7 parameters
+        (vectorised over the points); the points themselves are taken as exact.
+        """
+        p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        names = self.parameter_names
+        x0 = np.array([self.parameters[k] for k in PARAMETER_NAMES])
+        J = np.zeros((len(p), 3, len(names)))
+        for k in range(len(names)):
+            h = 1e-6 * max(1.0, abs(x0[k])) if k < 3 else 1e-7
+            xp, xm = x0.copy(), x0.copy()
+            xp[k] += h
+            xm[k] -= h
+            Tp = similarity_matrix(xp[:3], xp[3:6], xp[6])
+            Tm = similarity_matrix(xm[:3], xm[3:6], xm[6])
+            J[:, :, k] = (p @ (Tp[:3, :3] - Tm[:3, :3]).T + (Tp[:3, 3] - Tm[:3, 3])) / (2 * h)
+        C = self.covariance[: len(names), : len(names)]
+        return np.einsum("nik,kl,njl->nij", J, C, J)
+
     def rms(self, *, inliers_only: bool = True) -> dict[str, float]:
         """RMS of the residuals in X, Y, Z and 3D, metres."""
         v = self.residuals[~self.outliers] if inliers_only else self.residuals

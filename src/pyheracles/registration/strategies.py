@@ -108,6 +108,8 @@ class FreeNetworkResult:
     T_world_other: NDArray[np.float64]
     tie: SimilarityResult  # other -> base
     georef: SimilarityResult  # base (+ other's control, moved into base) -> world
+    # (the moved points are weighted with the tie transform's propagated covariance;
+    # their correlation is neglected - the block adjustment is the rigorous solution)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -151,10 +153,17 @@ def free_network(
         f"tie registration of {other.name} onto {base.name}",
     )
     # control measured in `other`, moved into the base frame, joins the base's measurements
+    # their sigma combines the measurement (scaled) and the tie transform's uncertainty
+    meas_sig = (
+        other.points.sigma
+        if other.points.sigma is not None
+        else np.full((len(other.points), 3), gp.sigma_m)
+    )
+    prop = np.diagonal(tie.point_covariance(other.points.xyz), axis1=1, axis2=2)
     moved = PointList(
         ids=other.points.ids,
         xyz=tie.apply(other.points.xyz),
-        sigma=None if other.points.sigma is None else other.points.sigma * tie.parameters["scale"],
+        sigma=np.sqrt((meas_sig * tie.parameters["scale"]) ** 2 + prop),
     )
     common = set(base.points.ids)
     extra = [i for i in moved.ids if i not in common]
