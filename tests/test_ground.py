@@ -170,6 +170,8 @@ def test_none_method_and_counts(rng: np.random.Generator) -> None:
     xyz, _ = terrain_with_buildings(rng)
     result = extract_ground(xyz, "none")
     assert result.n_ground == 0 and result.dtm is None
+    fine = extract_ground(xyz, "auto", dtm_cell_m=0.5)
+    assert fine.dtm is not None and fine.dtm.cell_m == 0.5
     counts = extract_ground(xyz, "smrf").counts()
     assert counts["ground"] + counts["off_ground"] == counts["total"] == len(xyz)
 
@@ -350,6 +352,9 @@ def test_cli_writes_cloud_dtm_and_run_json(shared_data: Path, tmp_path: Path) ->
     with rasterio.open(out / "dtm.tif") as dtm:
         assert dtm.crs.to_epsg() == 32632
         assert dtm.count == 2
+        # world frame: the raster starts at the cloud's west / north edge (UTM, 6-7 digits)
+        assert dtm.transform.c == pytest.approx(float(np.min(original.x)), abs=1e-6)
+        assert dtm.transform.f == pytest.approx(float(np.max(original.y)), abs=1e-6)
         z = dtm.read(1)
         ground_z = np.asarray(original.z)[np.asarray(las.classification) == 2]
         assert z.min() >= ground_z.min() - 0.5 and z.max() <= ground_z.max() + 0.5
