@@ -388,8 +388,43 @@ def bench_church(seeds: tuple[int, ...] = (0, 1, 2, 3, 4), runs: int = 200) -> N
     )
 
 
+def bench_bad_input() -> None:
+    """Each bad input gives an InputError with a clear message (printed as JSON)."""
+    import tempfile
+    from pathlib import Path
+
+    from pyheracles.errors import InputError
+    from pyheracles.registration.icp import icp
+    from pyheracles.registration.points import pair_points, read_points
+
+    tmp = Path(tempfile.mkdtemp())
+    (tmp / "dup.csv").write_text("id,X,Y,Z\nA,0,0,0\nA,1,0,0\nB,0,1,0\n")
+    (tmp / "a.csv").write_text("id,X,Y,Z\nA,0,0,0\nB,1,0,0\nC,0,1,0\nD,0,0,1\n")
+    (tmp / "b.csv").write_text("id,X,Y,Z\nA,0,0,0\nB,1,0,0\nC,0,1,0\nE,0,0,1\n")
+    rng = np.random.default_rng(0)
+    cube = rng.uniform(0, 1, (2000, 3))
+    cases = {
+        "fewer_than_3_pairs": lambda: estimate_similarity(np.zeros((2, 3)), np.ones((2, 3))),
+        "duplicated_ids": lambda: read_points(tmp / "dup.csv"),
+        "unmatched_ids": lambda: pair_points(
+            read_points(tmp / "a.csv"), read_points(tmp / "b.csv")
+        ),
+        "collinear_points": lambda: estimate_similarity(
+            np.outer(np.arange(5.0), [1, 2, 3]), np.outer(np.arange(5.0), [1, 2, 3]) + 1
+        ),
+        "clouds_do_not_overlap": lambda: icp(cube + 100.0, cube),
+    }
+    for name, fn in cases.items():
+        try:
+            fn()
+            emit(dataset="bad_input", metric=name, value=False, message="no error raised")
+        except InputError as exc:
+            emit(dataset="bad_input", metric=name, value=True, message=str(exc))
+
+
 SECTIONS = {
     "montecarlo": bench_montecarlo,
+    "badinput": bench_bad_input,
     "church": bench_church,
     "icp": bench_icp,
     "bunny": bench_bunny,
