@@ -89,6 +89,9 @@ class TiePointParams:
         Number of 3-correspondence RANSAC samples.
     up
         Vertical direction in both clouds.
+    opposite_sides
+        ``True`` when the clouds see the panes from opposite sides (exterior vs
+        interior): left and right corners swap between the views.
     seed
         Seed of MSAC and RANSAC.
     """
@@ -106,6 +109,7 @@ class TiePointParams:
     inlier_m: float = 0.08
     ransac_trials: int = 2000
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    opposite_sides: bool = True
     seed: int = 0
 
 
@@ -447,7 +451,7 @@ def _match(ks: Keypoints, kt: Keypoints, p: TiePointParams) -> NDArray[np.int_]:
     # chi-square-like distance via Hellinger embedding (sqrt of histograms), then L2
     D = np.linalg.norm(np.sqrt(desc_s)[:, None, :] - np.sqrt(desc_t)[None, :, :], axis=2)
     # left/right are mirrored between an outside and an inside view of the same pane
-    mirrored = np.array([1, 0, 3, 2])
+    mirrored = np.array([1, 0, 3, 2]) if p.opposite_sides else np.arange(4)
     compatible = (mirrored[ks.label][:, None] == kt.label[None, :]) & np.all(
         np.abs(ks.size[:, None, :] - kt.size[None, :, :]) <= p.size_tolerance_m, axis=2
     )
