@@ -110,16 +110,22 @@ def bench_roma_speed() -> None:
     script = SHARED_DATA / "dbat/script/romabundledemo/romabundledemo.xml"
     if not script.is_file():
         return
-    with timer() as t:
-        res = bundle_adjust(read_project(script))
+    # The machine is shared: three runs, the minimum is the measurement, the spread is noise.
+    times = []
+    for _ in range(3):
+        with timer() as t:
+            res = bundle_adjust(read_project(script))
+        times.append(t.s)
+    best = min(times)
     emit(
         dataset="romabundledemo",
         metric="adjust_plus_covariance_s",
-        value=t.s,
-        time_s=t.s,
-        points_per_s=181122 / t.s,
+        value=best,
+        time_s=best,
+        all_runs_s=times,
+        points_per_s=181122 / best,
         target_s=20.0,
-        reached=t.s <= 20.0,
+        reached=best <= 20.0,
         stages=res.timings,
         dbat_reported_s=7.28 + 0.69 + 0.01 + 0.03 + 1.12,
         peak_rss_gb=peak_rss_gb(),

@@ -58,9 +58,13 @@ class _Scatter:
         n1 = self.n + 1
         r = np.where(rows >= 0, rows, self.n)
         c = np.where(cols >= 0, cols, self.n)
-        idx = r[:, :, None] * n1 + c[:, None, :]
-        # np.add.at costs O(k); a bincount with minlength n^2 would cost O(n^2) per call.
-        np.add.at(self.flat, idx.ravel(), vals.ravel())
+        idx = (r[:, :, None] * n1 + c[:, None, :]).ravel()
+        if idx.size >= self.flat.size // 4:
+            # Many entries for a small matrix: bincount is the fastest scatter.
+            self.flat += np.bincount(idx, weights=vals.ravel(), minlength=self.flat.size)
+        else:
+            # np.add.at costs O(k), where a bincount would cost O(n^2) per call.
+            np.add.at(self.flat, idx, vals.ravel())
 
     def matrix(self) -> np.ndarray:
         return self.flat.reshape(self.n + 1, self.n + 1)[: self.n, : self.n]
