@@ -213,7 +213,7 @@ def bench_speed(points: int) -> None:
             target_peak_gb=4,
         )
         p = ours["params"]
-        budget = 20 * seg_s
+        budget = 10 * seg_s
         naive_s, done, total = _naive(
             str(files["cloud"]), specs, p.cluster_distance_m, p.buffer_m, budget
         )

@@ -62,9 +62,9 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
             files["cloud"], specs, outdir / "result", params=ComplexParams(), per_object="fid"
         )
     seg = result.segmentation
-    pred_keys = {int(r["instance"]): (r["class"], r["fid"]) for _, r in seg.objects.iterrows()}
+    pred_keys = {int(r["instance"]): f"{r['class']}/{r['fid']}" for _, r in seg.objects.iterrows()}
     ref = scene.reference_objects
-    ref_keys = {int(r["instance"]): (r["layer"], r["fid"]) for _, r in ref.iterrows()}
+    ref_keys = {int(r["instance"]): f"{r['layer']}/{r['fid']}" for _, r in ref.iterrows()}
     ev = evaluate_objects(
             seg.instance, scene.reference_instance, match="key",
             predicted_keys=pred_keys, reference_keys=ref_keys, reference_objects=ref,
@@ -86,8 +86,11 @@ def _print_scores(table: pd.DataFrame) -> None:
     from rich.table import Table
 
     t = Table(title="per-object scores against the reference (thesis tables 5.1/5.2)")
+    headers = {"n_reference": "points", "unclassified_pct": "uncl. %"}
     for col in ("object", "name", "n_reference", "precision", "recall", "f1", "unclassified_pct"):
-        t.add_column(col, justify="left" if col in ("object", "name") else "right")
+        t.add_column(
+            headers.get(col, col), justify="left" if col in ("object", "name") else "right"
+        )
     for _, row in table.iterrows():
 
         def fmt(v: object, pct: bool = False) -> str:

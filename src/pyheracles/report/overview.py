@@ -68,6 +68,7 @@ def plot_complex_overview(
     for k, (name, gdf) in enumerate(layers.items()):
         gdf.boundary.plot(ax=ax, color=colours[k % len(colours)], lw=0.8, label=f"GIS: {name}")
     ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")
     ax.set_xlabel("E (m)")
     ax.set_ylabel("N (m)")
     counts = seg.counts()
