@@ -23,7 +23,6 @@ import os
 import time
 from pathlib import Path
 
-import laspy
 import numpy as np
 
 from _common import SHARED_DATA, emit
@@ -101,10 +100,11 @@ PUBLISHED_SMRF_KAPPA = {
 
 
 def read_las(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Points in a local frame (minimum subtracted) and ASPRS classes."""
-    las = laspy.read(path)
-    xyz = np.c_[las.x, las.y, las.z]
-    return xyz - xyz.min(axis=0), np.asarray(las.classification)
+    """Points in the cloud's local frame and ASPRS classes."""
+    from pyheracles.io import read_cloud
+
+    cloud = read_cloud(path)
+    return cloud.xyz, np.asarray(cloud.attributes["classification"])
 
 
 def scores(ref: np.ndarray, mask: np.ndarray) -> dict[str, float]:

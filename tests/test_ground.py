@@ -276,9 +276,10 @@ def test_dtm_transform_adds_the_offset() -> None:
 
 # ----------------------------------------------------------------------------- real data
 def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    las = laspy.read(path)
-    xyz = np.c_[las.x, las.y, las.z]
-    return xyz - xyz.min(axis=0), np.asarray(las.classification)
+    from pyheracles.io import read_cloud
+
+    cloud = read_cloud(path)
+    return cloud.xyz, np.asarray(cloud.attributes["classification"])
 
 
 def _kappa_total_error(ref: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
