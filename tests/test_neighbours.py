@@ -92,6 +92,11 @@ def test_symmetric_eigen3_handles_degenerate_matrices():
         resid = np.einsum("nij,nj->ni", m, vec) - lam[:, None] * vec
         assert np.abs(resid).max() < 1e-8
     assert np.allclose(np.linalg.norm(vmin, axis=1), 1.0)
+    vals2, vmin2, none = symmetric_eigen3(up, directions=False)
+    assert none is None
+    np.testing.assert_allclose(vals2, vals)
+    resid = np.einsum("nij,nj->ni", mats, vmin2) - vals2[:, :1] * vmin2
+    assert np.abs(resid).max() < 1e-8
 
 
 def test_duplicates_are_flagged_not_nan():

@@ -362,7 +362,7 @@ def _point_level(
     if tree is None:
         tree = build_tree(xyz)
     _, idx = knn(xyz, params.k, tree=tree)
-    pca = local_pca(xyz, indices=idx)
+    pca = local_pca(xyz, indices=idx, directions=False)
     normals = orient_normals(xyz, pca.normals)
     n, k = idx.shape
     kg = k if params.graph_k is None else int(min(params.graph_k, k))
