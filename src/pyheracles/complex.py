@@ -416,29 +416,27 @@ def _object_points(
     if keep.any() and len(loose):
         from scipy.spatial import cKDTree
 
-        # Scattered points near the object and near the footprint join it
-        # (roof edges, railings) ...
+        # Scattered points join the object when they lie near the footprint
+        # and below the object's top and are linked to it through such points
         tree = cKDTree(xyz[cand[keep]])
         dist, _ = tree.query(
             xyz[cand[loose]],
             k=1,
-            distance_upper_bound=float(params.attach_distance_m),  # type: ignore[arg-type]
+            distance_upper_bound=2.0 * float(params.attach_distance_m),  # type: ignore[arg-type]
         )
-        near = np.isfinite(dist)
-        # ... and so do whole scattered clusters that touch it and lie mostly
-        # within half a buffer of the footprint (a rough roof, the arrises of
-        # a thin wall); a crown rooted outside does not.
-        sub = _cluster(xyz[cand[loose]], params)
-        n = np.bincount(sub)
-        n_in = np.bincount(sub, weights=near_poly[loose].astype(np.float64), minlength=len(n))
-        touching = np.bincount(sub, weights=near.astype(np.float64), minlength=len(n)) > 0
-        # a crown over a roof rises above it; roof edges and chimneys do not
-        z = xyz[cand[loose], 2]
+        # (a rough roof, the arrises of a thin wall).  A crown over a roof rises
+        # above it, and one rooted outside lies off the footprint: neither is
+        # taken, even where it touches the object.
         reach = float(params.attach_distance_m)  # type: ignore[arg-type]
         top = float(np.percentile(xyz[cand[keep], 2], 99)) + reach
-        below = np.bincount(sub, weights=(z <= top).astype(np.float64), minlength=len(n))
-        whole = touching & (n_in >= 0.5 * np.maximum(n, 1)) & (below >= 0.9 * n)
-        keep[loose[(near & near_poly[loose]) | whole[sub]]] = True
+        eligible = near_poly[loose] & (xyz[cand[loose], 2] <= top)
+        if eligible.any():
+            # links twice as long: such points are sparse (a wall's arrises)
+            link = replace(params, cluster_distance_m=2.0 * float(params.cluster_distance_m))  # type: ignore[arg-type]
+            sub = _cluster(xyz[cand[loose[eligible]]], link)
+            close = dist[eligible] <= 2.0 * reach
+            touching = np.bincount(sub, weights=close.astype(np.float64)) > 0
+            keep[loose[eligible][touching[sub]]] = True
     return keep
 
 
