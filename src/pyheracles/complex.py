@@ -84,9 +84,10 @@ class ComplexParams:
     scatter_max
         Surface variation (smallest eigenvalue / sum, k = 12 neighbours) above
         which a point counts as scattered, like foliage.  Objects are grown
-        from the other points only; scattered points join an object when they
-        lie within ``attach_distance_m`` of it (roof edges, railings), so a
-        tree crown touching a roof does not become part of it.  ``None``
+        from the other points only; scattered points join an object only when
+        they lie near its footprint and below its top and are linked to it
+        (roof edges, thin walls), so a tree crown touching a roof does not
+        become part of it.  ``None``
         turns this off (the thesis's plain clustering).  Roofs and walls have
         a median near 0.007, foliage near 0.11 (measured on AHN3 tile 1).
     multi_echo_scatter_max
@@ -94,7 +95,9 @@ class ComplexParams:
         (LAS ``number_of_returns > 1``; used only when the cloud has it):
         the laser went partly through, as in foliage.  ``None`` ignores echoes.
     attach_distance_m
-        See ``scatter_max``.  Automatic: the clustering distance.
+        Scattered points are linked to an object by steps of up to twice
+        this distance, and may rise this much above its top.  Automatic: the
+        clustering distance.
     ground
         One of ``auto``, ``csf``, ``smrf`` (see :mod:`pyheracles.ground`),
         ``class`` (keep ASPRS class 2 of the input) or ``none``.
@@ -402,7 +405,7 @@ def _object_points(
     """Mask over ``cand`` of the points that make the polygon's object.
 
     Clusters are grown from the smooth points; scattered points then join
-    when they lie within ``attach_distance_m`` of a kept smooth point.
+    through chains of scattered points near the footprint (see below).
     """
     keep = np.zeros(len(cand), dtype=bool)
     cand_in = cand_dist == 0.0
@@ -413,30 +416,26 @@ def _object_points(
     near_poly = cand_dist <= 0.5 * float(params.buffer_m)  # type: ignore[arg-type]
     keep[core] = _select_clusters(labels, cand_in[core], near_poly[core], params)
     loose = np.flatnonzero(scattered)
-    if keep.any() and len(loose):
-        from scipy.spatial import cKDTree
+    if not keep.any() or len(loose) == 0:
+        return keep
+    # Scattered points join the object when they lie near the footprint and
+    # below the object's top and are linked to it through such points (a rough
+    # roof, the arrises of a thin wall).  A crown over a roof rises above it,
+    # and one rooted outside lies off the footprint: neither is taken, even
+    # where it touches the object.  Links are twice the clustering distance:
+    # such points are sparse.
+    reach = 2.0 * float(params.attach_distance_m)  # type: ignore[arg-type]
+    top = float(np.percentile(xyz[cand[keep], 2], 99)) + 0.5 * reach
+    eligible = loose[near_poly[loose] & (xyz[cand[loose], 2] <= top)]
+    if len(eligible) == 0:
+        return keep
+    from scipy.spatial import cKDTree
 
-        # Scattered points join the object when they lie near the footprint
-        # and below the object's top and are linked to it through such points
-        tree = cKDTree(xyz[cand[keep]])
-        dist, _ = tree.query(
-            xyz[cand[loose]],
-            k=1,
-            distance_upper_bound=2.0 * float(params.attach_distance_m),  # type: ignore[arg-type]
-        )
-        # (a rough roof, the arrises of a thin wall).  A crown over a roof rises
-        # above it, and one rooted outside lies off the footprint: neither is
-        # taken, even where it touches the object.
-        reach = float(params.attach_distance_m)  # type: ignore[arg-type]
-        top = float(np.percentile(xyz[cand[keep], 2], 99)) + reach
-        eligible = near_poly[loose] & (xyz[cand[loose], 2] <= top)
-        if eligible.any():
-            # links twice as long: such points are sparse (a wall's arrises)
-            link = replace(params, cluster_distance_m=2.0 * float(params.cluster_distance_m))  # type: ignore[arg-type]
-            sub = _cluster(xyz[cand[loose[eligible]]], link)
-            close = dist[eligible] <= 2.0 * reach
-            touching = np.bincount(sub, weights=close.astype(np.float64)) > 0
-            keep[loose[eligible][touching[sub]]] = True
+    dist, _ = cKDTree(xyz[cand[keep]]).query(xyz[cand[eligible]], k=1, distance_upper_bound=reach)
+    link = replace(params, cluster_distance_m=2.0 * float(params.cluster_distance_m))  # type: ignore[arg-type]
+    sub = _cluster(xyz[cand[eligible]], link)
+    touching = np.bincount(sub, weights=np.isfinite(dist).astype(np.float64)) > 0
+    keep[eligible[touching[sub]]] = True
     return keep
 
 
