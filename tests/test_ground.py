@@ -125,7 +125,8 @@ def test_auto_measures_the_scene(rng: np.random.Generator) -> None:
     assert result.scene.max_object_size_m == 50.0
     assert 0.25 < result.scene.slope < 0.45  # p90 of a 0.3 ramp plus the sine relief
     assert isinstance(result.params, AutoParams)
-    assert result.params.seed.window_m == 25.0  # half the largest object
+    cell = result.params.seed.cell_m
+    assert result.params.seed.window_m == pytest.approx(25.0 + cell)  # half the object + 1 cell
 
 
 def test_auto_csf_params_follow_slope_and_spacing(rng: np.random.Generator) -> None:

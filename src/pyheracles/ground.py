@@ -216,7 +216,7 @@ def extract_ground(
         ``dataclasses.replace(auto_params(measure_scene(xyz)), ...)``.
     max_object_size_m
         Size of the largest building, metres (e.g. the largest footprint diameter of the
-        GIS layer given to step 1); used by ``"auto"``. None = 36 m.
+        GIS layer given to step 1); used by ``"auto"``. None = 34 m.
     dtm_cell_m
         Cell size of the returned DTM, metres; None = the filter's cell (SMRF cell or
         cloth resolution).

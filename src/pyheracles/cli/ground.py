@@ -72,7 +72,7 @@ def register(app: typer.Typer) -> None:
         max_object_size_m: Annotated[
             float | None,
             typer.Option(
-                "--max-object-size", help="Largest building size in metres (auto; default 36)."
+                "--max-object-size", help="Largest building size in metres (auto; default 34)."
             ),
         ] = None,
         dtm_cell_m: Annotated[

@@ -28,9 +28,9 @@ __all__ = [
     "terrain_slope",
 ]
 
-DEFAULT_MAX_OBJECT_SIZE_M = 36.0
-"""Largest building footprint size assumed when none is given, metres (twice PDAL's
-18 m SMRF window radius)."""
+DEFAULT_MAX_OBJECT_SIZE_M = 34.0
+"""Largest building size assumed when none is given, metres: with a 1 m cell it gives
+PDAL's 18 m SMRF window radius (see :func:`auto_params`)."""
 
 
 @dataclass(frozen=True)
@@ -154,12 +154,15 @@ def auto_params(scene: SceneMeasures) -> AutoParams:
     - cell (SMRF and refinement): the point spacing, at least 1 m (Pingel et al. 2013 use
       1 m on the ISPRS samples, spacing 1-1.5 m; a finer terrain raster than 1 m follows
       kerbs and low vegetation instead of the terrain and costs four times more);
-    - SMRF window radius: half the largest object size (a building must fit in the disk);
+    - SMRF window radius: half the largest object size plus one cell, so that the disk no
+      longer fits inside the largest building (e.g. ``sqrt(area)`` of the largest GIS
+      footprint, as step 1 passes it) and the opening removes it;
     - SMRF slope, threshold and scalar: PDAL's defaults, which Pingel et al. (2013) found to
       work across the ISPRS samples (using the measured terrain slope as SMRF slope lets
       buildings on steep sites through: 25 % total error on sample 11 instead of 9 %);
     - the refinement threshold comes from the measured roughness of the seeds.
     """
     cell = round(max(1.0, scene.spacing_m), 2)
-    seed = SMRFParams(cell_m=cell, window_m=max(2.0 * cell, 0.5 * scene.max_object_size_m))
+    window = round(0.5 * scene.max_object_size_m + cell, 2)
+    seed = SMRFParams(cell_m=cell, window_m=max(2.0 * cell, window))
     return AutoParams(seed=seed, refine=RefineParams(cell_m=cell))
