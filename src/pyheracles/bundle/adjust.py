@@ -423,17 +423,35 @@ def _rank_report(net: Network, s: np.ndarray) -> list[dict]:
     names = _camera_param_names(net)
     out = []
     tol = 1e-10 * max(vals.max(), 1.0)
-    for k in np.flatnonzero(vals < tol)[:6]:
+    for k in np.flatnonzero(vals < tol):
         v = vecs[:, k]
         order = np.argsort(-np.abs(v))
+        # DBAT's rule: keep the elements above halfway between the average and the max.
         thr = 0.5 * (np.abs(v[order[0]]) + np.sqrt(1.0 / v.size))
         out.append(
             {
                 "eigenvalue": float(vals[k]),
-                "parameters": [names[i] for i in order if abs(v[i]) > thr][:12],
+                "parameters": [names[i] for i in order if abs(v[i]) > thr],
             }
         )
     return out
+
+
+def _rank_message(deficiency: list[dict]) -> str:
+    """Short text: the defect and the kinds of parameters involved (counted)."""
+    from collections import Counter
+
+    kinds: Counter[str] = Counter()
+    for x in deficiency:
+        for name in x["parameters"]:
+            parts = name.split()
+            kinds[f"{parts[0]} {parts[-1]}"] += 1
+    images_only = all(k.startswith("image") for k in kinds)
+    what = ", ".join(f"{k} ({n})" for k, n in kinds.most_common(12))
+    msg = f"rank defect {len(deficiency)}; undetermined combinations involve {what}"
+    if images_only:
+        msg += " (the datum is undefined: fix a reference image or use control points)"
+    return msg
 
 
 def _camera_param_names(net: Network) -> list[str]:
@@ -521,10 +539,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
         fac, d = _cholesky(ne.s)
         if fac is None:
             deficiency = _rank_report(net, ne.s)
-            names = "; ".join(", ".join(x["parameters"]) for x in deficiency) or "unknown"
             raise DegenerateGeometryError(
-                f"the normal equations are rank deficient: undetermined parameter "
-                f"combination(s): {names}",
+                f"the normal equations are rank deficient: {_rank_message(deficiency)}",
                 path=p.source,
                 hint="fix some interior parameters (--estimate) or add control points",
             )
