@@ -463,7 +463,7 @@ def _engaged_on_wall(
             continue
         q = p - circle.center
         arc = np.unique(np.floor((np.arctan2(q[:, 1], q[:, 0]) + np.pi) / (2 * np.pi) * 36))
-        if len(arc) < 9:  # less than a quarter of a circle: a corner, not a half-column
+        if len(arc) < 7:  # less than 70 degrees of arc: a corner, not a half-column
             continue
         # attached to a face: centre close to a face line, bump standing out of it
         for n, d, face_rms in lines:
@@ -765,6 +765,37 @@ def _floor_ceiling(
     return floor_z, ceil_z
 
 
+def _face_cover(
+    pts: Array,
+    z: Array,
+    front: Array,
+    rho: Array,
+    sh: dict,
+    sc: _Scales,
+    floor_z: float,
+    top_z: float,
+) -> float:
+    """Share of the wall face beside an engaged column that holds points (0..1).
+
+    Cells of ``3 x spacing`` in (along the face, height) on both sides of the column,
+    from the floor to the top: a wall fills them, a fence or a rail does not.
+    """
+    c = max(0.05, 3.0 * sc.spacing)
+    width = sh["buffer"] + _RING_M - 2 * sc.tol
+    on = (np.abs(front) <= max(sh["face_gap"], sc.tol)) & (rho > 2 * sc.tol)
+    on &= (z > floor_z) & (z < top_z)
+    if width <= 0 or top_z <= floor_z or not on.any():
+        return 0.0
+    t = np.array([-sh["normal"][1], sh["normal"][0]])
+    along = (pts[on, :2] - sh["centre"]) @ t
+    ia = np.floor((along + sh["radius"] + 2 * sc.tol + width) / c).astype(np.int64)
+    iz = np.floor((z[on] - floor_z) / c).astype(np.int64)
+    n_along = int(np.ceil((2 * (sh["radius"] + 2 * sc.tol + width)) / c))
+    occupied = len(np.unique(iz * (n_along + 1) + ia))
+    total = 2 * int(np.ceil(width / c)) * int(np.ceil((top_z - floor_z) / c))
+    return min(1.0, occupied / max(total, 1))
+
+
 def _extract_support(
     p: Array,
     idx: NDArray[np.intp],
@@ -784,7 +815,12 @@ def _extract_support(
     inside &= z < ceil_z - params.ceiling_tolerance_m
     if sh["class"] == "engaged_column":
         front = p[idx, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
-        inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
+        # an engaged column stands in a wall: the face must rise with it (a fence rail or
+        # a bench touching a one-sided scanned column is no wall)
+        if _face_cover(p[idx], z, front, rho, sh, sc, floor_z, min(ceil_z, z_range[1])) < 0.5:
+            sh["class"] = "column"
+        else:
+            inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
     cidx = idx[inside]
     if len(cidx) < params.min_points:
         return None
