@@ -151,3 +151,22 @@ def test_run_json_records_inputs_and_parameters(tmp_path: Path) -> None:
     assert rec["step"] == "test" and rec["parameters"] == {"a": 1}
     assert rec["inputs"][0]["bytes"] == 3
     assert rec["inputs"][0]["sha256"].startswith("ba7816bf")
+
+
+def test_e57_two_scans_are_merged(tmp_path: Path, rng) -> None:
+    pye57 = pytest.importorskip("pye57")
+    path = tmp_path / "two.e57"
+    e57 = pye57.E57(str(path), mode="w")
+    first = {k: rng.uniform(0, 1, 50) for k in ("cartesianX", "cartesianY", "cartesianZ")}
+    e57.write_scan_raw(first)
+    e57.write_scan_raw({k: v + 100 for k, v in first.items()})
+    e57.close()
+    pc = read_cloud(path)
+    assert len(pc) == 100
+    np.testing.assert_array_equal(np.bincount(pc.attributes["scan_index"]), [50, 50])
+    np.testing.assert_allclose(pc.world_xyz()[:50, 0], first["cartesianX"], atol=1e-9)
+    np.testing.assert_allclose(pc.world_xyz()[50:, 0], first["cartesianX"] + 100, atol=1e-9)
+    bad = tmp_path / "bad.e57"
+    bad.write_bytes(b"ASTM-E57" + b"\0" * 100)
+    with pytest.raises(InputError, match=r"bad\.e57: cannot read as E57"):
+        read_cloud(bad)
