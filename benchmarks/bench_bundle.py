@@ -26,6 +26,7 @@ from _common import SHARED_DATA, emit, peak_rss_gb, timer
 from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust
 from pyheracles.bundle.dbatreport import compare_with_dbat, read_dbat_report
 from pyheracles.bundle.readers import (
+    read_camera_positions,
     read_control_points,
     read_photomodeler,
     read_project,
@@ -72,6 +73,18 @@ def _references(root: Path):
             yield (f"prague2016-{sub}-{stub}-{orient}", proj.with_control(ctrl),
                    BundleParameters(estimate_io=()),
                    base / f"dbatexports/{stub}-{orient}-dbatreport.txt")  # fmt: skip
+    sxb = d / "prague2016/sxb"
+    for prior in (False, True):
+        proj = read_photomodeler(sxb / "pmexports/wsmart-with-orient-pmexport.txt", model=1)
+        proj = proj.with_control(read_control_points(sxb / "ref/ctrlpts-weighted.txt"))
+        proj = proj.replace(needs_resection=True)
+        if prior:
+            proj = proj.with_prior_positions(
+                read_camera_positions(sxb / "ref/fake-camera-positions.txt")
+            )
+        tag = "prior-eo" if prior else "no-prior-eo"
+        yield (f"prague2016-sxb-{tag}", proj, BundleParameters(estimate_io=()),
+               sxb / f"dbatexports/sxb-{tag}-dbatreport.txt")  # fmt: skip
     psz = d / "prague2016/sxb/psprojects"
     yield ("prague2016-sxb-photoscan", read_project(psz / "sxb.psz"),
            BundleParameters(estimate_io=()), psz / "sxb-dbatreport.txt")  # fmt: skip

@@ -12,7 +12,11 @@ import pytest
 
 from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust, read_project
 from pyheracles.bundle.dbatreport import compare_with_dbat, read_dbat_report
-from pyheracles.bundle.readers import read_control_points, read_photomodeler
+from pyheracles.bundle.readers import (
+    read_camera_positions,
+    read_control_points,
+    read_photomodeler,
+)
 from pyheracles.errors import DegenerateGeometryError, InputError
 
 pytestmark = pytest.mark.realdata
@@ -108,6 +112,25 @@ def test_prague2016_photomodeler(shared_data, sub, stub, weighted, orient):
     project, report = _prague(shared_data, sub, stub, orient, weighted)
     res = bundle_adjust(project, BundleParameters(estimate_io=()))
     assert res.redundancy == read_dbat_report(report).redundancy
+    _check(res, report)
+
+
+@pytest.mark.parametrize("prior", [False, True])
+def test_sxb_prior_camera_positions(shared_data, prior):
+    """DBAT's sxb_prior_eo demo: world-frame control, optional GNSS-like camera positions."""
+    root = shared_data / "dbat" / "prague2016" / "sxb"
+    project = read_photomodeler(root / "pmexports" / "wsmart-with-orient-pmexport.txt", model=1)
+    project = project.with_control(read_control_points(root / "ref" / "ctrlpts-weighted.txt"))
+    # The export is in PhotoModeler's local frame: re-initialise by resection (as DBAT).
+    project = project.replace(needs_resection=True)
+    if prior:
+        positions = read_camera_positions(root / "ref" / "fake-camera-positions.txt")
+        project = project.with_prior_positions(positions)
+    res = bundle_adjust(project, BundleParameters(estimate_io=()))
+    report = root / "dbatexports" / f"sxb-{'prior-eo' if prior else 'no-prior-eo'}-dbatreport.txt"
+    rep = read_dbat_report(report)
+    assert res.n_observations == rep.n_observations
+    assert res.redundancy == rep.redundancy
     _check(res, report)
 
 

@@ -277,6 +277,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
     sqrt_w = 1.0 / (project.obs_std_px * pix[obs_cam])
     if not np.all(np.isfinite(sqrt_w)) or np.any(project.obs_std_px <= 0):
         raise InputError("image observation standard deviations must be > 0", path=project.source)
+    eo_observed = project.eo.copy()  # prior EO values, before resection replaces them
     project = _initial_values(project, uv_mm, obs_cam)
 
     io_free = project.estimate_io.copy()
@@ -309,7 +310,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
         eo_free[ref] = False
         eo_free[img, axis] = False
         fixed_coord = (int(img), int(axis))
-    eo_prior = np.where(np.isfinite(project.eo_std) & eo_free, project.eo, np.nan)
+    eo_prior = np.where(np.isfinite(project.eo_std) & eo_free, eo_observed, np.nan)
     eo_prior_std = np.where(np.isfinite(project.eo_std) & eo_free, project.eo_std, np.nan)
     eo_prior_std[eo_prior_std <= 0] = np.nan
 

@@ -96,13 +96,15 @@ def _resect_one(xyz: np.ndarray, rays: np.ndarray) -> tuple[np.ndarray, np.ndarr
         if np.linalg.det(basis) < 0:
             basis[2] *= -1
         obj2 = x0 @ basis[:2].T
+        # Hartley normalisation of the plane coordinates (conditioning of the DLT).
+        k = 1.0 / max(np.sqrt(np.mean(np.sum(obj2**2, axis=1))), 1e-12)
         rows = []
-        for (x, y), (u, v) in zip(obj2, q, strict=True):
+        for (x, y), (u, v) in zip(obj2 * k, q, strict=True):
             # h ~ [u, v, -1] = H [x, y, 1]
             rows.append([x, y, 1, 0, 0, 0, u * x, u * y, u])
             rows.append([0, 0, 0, x, y, 1, v * x, v * y, v])
         hv = _dlt(np.asarray(rows, float))
-        h = hv.reshape(3, 3)
+        h = hv.reshape(3, 3) @ np.diag([k, k, 1.0])  # back to unnormalised plane units
         m_plane, t = _pose_from_homography(h, q, obj2)
         # Plane frame -> world: X = centre + basis^T [x, y, z]
         m = m_plane @ basis  # world->camera
@@ -164,14 +166,25 @@ def spatial_resection(
     rays = ideal_rays(uv_mm, ioa, model)
     rot, c = _resect_one(xyz, rays)
     eo = np.concatenate([c, angles_from_rotation(rot)[0]])
+
+    def cost(e: np.ndarray) -> float:
+        r = image_residuals(ioa, np.broadcast_to(e, (k, 6)), xyz, uv_mm, model)
+        return float(np.sum(r**2)) if np.all(np.isfinite(r)) else np.inf
+
     for _ in range(iterations):
         res, (_, d_eo, _) = image_residuals(
             ioa, np.broadcast_to(eo, (k, 6)), xyz, uv_mm, model, jacobian=True
         )
         jac = d_eo.reshape(-1, 6)
         step, *_ = np.linalg.lstsq(jac, -res.ravel(), rcond=None)
-        eo = eo + step
-        if np.linalg.norm(step) < 1e-12 * (1 + np.linalg.norm(eo)):
+        # Damped (halving) steps: never accept an increase of the residual.
+        f0, alpha = float(np.sum(res**2)), 1.0
+        while alpha > 1e-6 and cost(eo + alpha * step) > f0:
+            alpha /= 2
+        if alpha <= 1e-6:
+            break
+        eo = eo + alpha * step
+        if np.linalg.norm(alpha * step) < 1e-12 * (1 + np.linalg.norm(eo)):
             break
     if not np.all(np.isfinite(eo)):
         raise EstimationError("spatial resection failed")

@@ -273,3 +273,27 @@ class Project:
         if model not in (1, 2, 3, 4, 5, -1):
             raise InputError(f"unknown lens distortion model {model}; choose 1-5 or -1")
         return self.replace(cameras=tuple(_replace(c, model=model) for c in self.cameras))
+
+    def with_prior_positions(self, positions: dict) -> Project:
+        """A copy observing camera positions (GNSS-like priors) with their accuracies.
+
+        ``positions`` maps an image name (or id as text) to ``(xyz (3,), std (3,))``,
+        see :func:`~pyheracles.bundle.readers.read_camera_positions`.  The prior
+        positions also become the initial positions of those images.
+        """
+        eo = self.eo.copy()
+        eo_std = self.eo_std.copy()
+        found = 0
+        for i, (name, iid) in enumerate(zip(self.image_names, self.image_ids, strict=True)):
+            key = name if name in positions else str(int(iid))
+            if key in positions:
+                xyz, sd = positions[key]
+                eo[i, :3] = xyz
+                eo_std[i, :3] = sd
+                found += 1
+        if found == 0:
+            raise InputError(
+                "no camera position matches an image name or id of the project",
+                hint="the first column of the position file must be the image file name or id",
+            )
+        return self.replace(eo=eo, eo_std=eo_std)

@@ -7,11 +7,16 @@ from pathlib import Path
 from pyheracles.bundle.project import Project
 from pyheracles.bundle.readers.colmap import read_colmap
 from pyheracles.bundle.readers.dbat_script import read_camera_xml, read_dbat_script
-from pyheracles.bundle.readers.photomodeler import read_control_points, read_photomodeler
+from pyheracles.bundle.readers.photomodeler import (
+    read_camera_positions,
+    read_control_points,
+    read_photomodeler,
+)
 from pyheracles.bundle.readers.photoscan import read_photoscan
 from pyheracles.errors import InputError
 
 __all__ = [
+    "read_camera_positions",
     "read_camera_xml",
     "read_colmap",
     "read_control_points",

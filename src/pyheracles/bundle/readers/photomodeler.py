@@ -29,7 +29,7 @@ from pyheracles.bundle.camera import IO_NAMES, Camera
 from pyheracles.bundle.project import Project
 from pyheracles.errors import InputError
 
-__all__ = ["read_control_points", "read_photomodeler"]
+__all__ = ["read_camera_positions", "read_control_points", "read_photomodeler"]
 
 
 def _nums(line: str) -> list[float]:
@@ -242,3 +242,34 @@ def read_control_points(path: str | Path) -> dict:
         "role": roles,
         "source": str(path),
     }
+
+
+def read_camera_positions(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Read prior camera positions ``label, X, Y, Z[, s | sX, sY, sZ]`` (CSV, '#' comments).
+
+    Returns a dict image label -> (xyz (3,), std (3,)); a missing accuracy is an
+    error (a prior without accuracy has no weight).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("camera position file not found", path=path)
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for lineno, line in enumerate(fh, 1):
+            s = line.strip()
+            if not s or s.startswith("#"):
+                continue
+            toks = [t.strip() for t in s.split(",")]
+            try:
+                vals = [float(t) for t in toks[1:]]
+            except ValueError:
+                raise InputError(f"line {lineno}: non-numeric value", path=path) from None
+            if len(vals) not in (4, 6):
+                raise InputError(
+                    f"line {lineno}: expected label, X, Y, Z and 1 or 3 accuracies", path=path
+                )
+            sd = vals[3:] * 3 if len(vals) == 4 else vals[3:]
+            out[toks[0]] = (np.asarray(vals[:3]), np.asarray(sd, float))
+    if not out:
+        raise InputError("no camera position in the file", path=path)
+    return out
