@@ -46,3 +46,16 @@ def test_cli_bundle_bad_input(tmp_path):
     bad.write_text("not xml at all <")
     assert main(["bundle", str(bad), "-o", str(tmp_path / "o")]) == 2
     assert main(["bundle", str(tmp_path / "absent.xml"), "-o", str(tmp_path / "o")]) == 2
+
+
+def test_cli_bundle_prior_positions(shared_data, tmp_path):
+    root = shared_data / "dbat" / "prague2016" / "sxb"
+    out = tmp_path / "sxb"
+    args = ["bundle", str(root / "pmexports" / "wsmart-with-orient-pmexport.txt"),
+            "--control", str(root / "ref" / "ctrlpts-weighted.txt"),
+            "--positions", str(root / "ref" / "fake-camera-positions.txt"),
+            "--resect", "--no-plots", "-o", str(out)]  # fmt: skip
+    assert main(args) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["sigma0"] == pytest.approx(1.06942, rel=1e-4)  # DBAT sxb-prior-eo report
+    assert rep["n_observations"] == 2452

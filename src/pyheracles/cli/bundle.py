@@ -18,11 +18,15 @@ _HELP = "\n\n".join(
         "standard deviations of the cameras, images and points, correlations over 95 %, "
         "control and check point residuals, per-image statistics, data snooping.",
         "PROJECT: a DBAT XML script (.xml, its operations give the estimated parameters and "
-        "the datum) or a PhotoModeler text export (.txt).",
+        "the datum), a PhotoModeler text export (.txt), a PhotoScan/Metashape archive "
+        "(.psz) or a COLMAP text model folder.",
         "--control: control/check points 'id[,label],X,Y,Z[,sXYZ | sX,sY,sZ][,check]' "
         "(no standard deviation = fixed). --estimate: interior parameters to estimate "
         "(cc,px,py,as,sk,K1,K2,K3,P1,P2; 'none' = fixed camera; default: the project's "
-        "choice). --damping gna (Gauss-Newton-Armijo, DBAT default), lm or gn.",
+        "choice). --damping gna (Gauss-Newton-Armijo, DBAT default), lm or gn. "
+        "--positions: prior camera positions 'image,X,Y,Z,s' used as weighted observations; "
+        "--resect: initial orientations by resection from the control points (when the "
+        "project's own orientations are in another frame).",
         "Writes into OUTDIR: report.txt (DBAT layout), report.json, radial_distortion.png, "
         "eo_std_hist.png, image_stats.png, run.json.",
         "Examples:",
@@ -43,6 +47,14 @@ def register(app: typer.Typer) -> None:
         control: Annotated[
             Path | None, typer.Option("--control", help="Control/check point table.")
         ] = None,
+        positions: Annotated[
+            Path | None,
+            typer.Option("--positions", help="Prior camera positions 'image,X,Y,Z,s' (GNSS)."),
+        ] = None,
+        resect: Annotated[
+            bool,
+            typer.Option("--resect", help="Re-initialise images by resection from control."),
+        ] = False,
         estimate: Annotated[
             str | None, typer.Option("--estimate", help="IO parameters to estimate, comma list.")
         ] = None,
@@ -62,7 +74,11 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust
-        from pyheracles.bundle.readers import read_control_points, read_project
+        from pyheracles.bundle.readers import (
+            read_camera_positions,
+            read_control_points,
+            read_project,
+        )
         from pyheracles.bundle.report import write_reports
         from pyheracles.cli.common import console, output_dir
         from pyheracles.errors import InputError
@@ -85,6 +101,10 @@ def register(app: typer.Typer) -> None:
                 proj = proj.with_control(read_control_points(control))
             if default_io is not None:
                 proj = proj.with_default_io(default_io)
+            if resect:
+                proj = proj.replace(needs_resection=True)
+            if positions is not None:
+                proj = proj.with_prior_positions(read_camera_positions(positions))
             t_read = time.perf_counter() - t0
             result = bundle_adjust(proj, params)
         for w in caught:
@@ -99,7 +119,7 @@ def register(app: typer.Typer) -> None:
                 stage,
                 step="bundle",
                 parameters=params,
-                inputs=[project, *([control] if control else [])],
+                inputs=[project, *(f for f in (control, positions) if f)],
                 timings=timings,
                 counts={
                     "images": result.project.n_images,
