@@ -197,3 +197,29 @@ def test_bad_parameters_and_unreadable_project(tmp_path):
     txt.write_text("hello\nworld\n")
     with pytest.raises(InputError):
         read_project(txt)
+
+
+def test_two_cameras_self_calibration(small_network):
+    """Two physical cameras (alternate images), both self-calibrated: exercises the
+    per-(point, camera) coupling blocks of the Schur complement."""
+    project, truth = small_network
+    cam2 = project.cameras[0].with_io(project.cameras[0].io_vector())
+    cam2 = type(cam2)(**{**cam2.__dict__, "id": 2})
+    image_camera = np.arange(project.n_images) % 2
+    two = project.replace(
+        cameras=(project.cameras[0], cam2),
+        image_camera=image_camera,
+        estimate_io=np.repeat(project.estimate_io, 2, axis=0),
+    )
+    res = bundle_adjust(two)
+    assert res.converged and 0.9 < res.sigma0 < 1.1
+    total = res.redundancy_numbers.sum() + res.prior_redundancy_numbers.sum()
+    assert total == pytest.approx(res.redundancy, rel=1e-6)
+    assert (
+        res.n_parameters
+        == bundle_adjust(project, BundleParameters(covariance=False)).n_parameters + 7
+    )
+    for ci in range(2):
+        free = res.network.io_free[ci]
+        z = np.abs(res.io[ci, free] - truth["io"][free]) / res.io_std[ci, free]
+        assert z.max() < 4.5
