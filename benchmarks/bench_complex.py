@@ -29,7 +29,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import SHARED_DATA, emit, timer
 from pyheracles.complex import ComplexParams, prepare_layers, segment_complex
-from pyheracles.evaluate import evaluate_objects, ground_scores, reference_from_polygons
+from pyheracles.evaluate import (
+    evaluate_by_feature,
+    evaluate_objects,
+    ground_scores,
+    reference_from_polygons,
+)
 
 
 def _f1_summary(f1: np.ndarray) -> dict[str, float]:
@@ -95,17 +100,8 @@ def bench_demo(points: int) -> None:
         res = segment_complex(scene.cloud, layers)
     seg = res.segmentation
     seg.check_balance()
-    pk = {int(r["instance"]): (r["class"], r["fid"]) for _, r in seg.objects.iterrows()}
     ro = scene.reference_objects
-    rk = {int(r["instance"]): (r["layer"], r["fid"]) for _, r in ro.iterrows()}
-    ev = evaluate_objects(
-        seg.instance,
-        scene.reference_instance,
-        match="key",
-        predicted_keys=pk,
-        reference_keys=rk,
-        reference_objects=ro,
-    )
+    ev = evaluate_by_feature(seg.instance, seg.objects, scene.reference_instance, ro)
     table = ev.objects
     per_layer = {
         layer: _f1_summary(table.loc[table["layer"] == layer, "f1"].to_numpy(dtype=float))

@@ -39,6 +39,7 @@ from pyheracles.errors import InputError
 __all__ = [
     "MATCH_METHODS",
     "ObjectEvaluation",
+    "evaluate_by_feature",
     "evaluate_objects",
     "ground_scores",
     "reference_from_polygons",
@@ -566,3 +567,28 @@ def reference_from_polygons(
             first = np.r_[True, j_pt[1:] != j_pt[:-1]]
             labels[idx[rest[j_pt[first]]]] = j_poly[first].astype(np.int32) + 1
     return labels
+
+
+def evaluate_by_feature(
+    instance: ArrayLike,
+    objects: pd.DataFrame,
+    reference_instance: ArrayLike,
+    reference_objects: pd.DataFrame,
+    *,
+    key: str = "fid",
+) -> ObjectEvaluation:
+    """Score step-1 objects against reference objects of the same GIS features.
+
+    Predicted objects (``objects``: columns ``instance``, ``class``, ``key``) and
+    reference objects (``reference_objects``: ``instance``, ``layer``, ``key``)
+    are paired by ``layer/key``, as in the demo scene and the benchmarks.
+    """
+    pred = {int(i): f"{c}/{k}" for i, c, k in
+            zip(objects["instance"], objects["class"], objects[key], strict=True)}  # fmt: skip
+    ref = {int(i): f"{c}/{k}" for i, c, k in
+           zip(reference_objects["instance"], reference_objects["layer"],
+               reference_objects[key], strict=True)}  # fmt: skip
+    return evaluate_objects(
+        instance, reference_instance, match="key", predicted_keys=pred, reference_keys=ref,
+        reference_objects=reference_objects,
+    )  # fmt: skip

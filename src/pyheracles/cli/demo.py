@@ -42,7 +42,7 @@ def register(app: typer.Typer) -> None:
 def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
     """Generate, write, segment, evaluate and draw; returns what the summary prints."""
     from pyheracles.complex import ComplexParams
-    from pyheracles.evaluate import evaluate_objects, ground_scores
+    from pyheracles.evaluate import evaluate_by_feature, ground_scores
     from pyheracles.io.atomic import atomic_path, atomic_write_json
     from pyheracles.pipeline import complex_from_files
     from pyheracles.progress import enabled
@@ -62,13 +62,8 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
             files["cloud"], specs, outdir / "result", params=ComplexParams(), per_object="fid"
         )
     seg = result.segmentation
-    pred_keys = {int(r["instance"]): f"{r['class']}/{r['fid']}" for _, r in seg.objects.iterrows()}
     ref = scene.reference_objects
-    ref_keys = {int(r["instance"]): f"{r['layer']}/{r['fid']}" for _, r in ref.iterrows()}
-    ev = evaluate_objects(
-            seg.instance, scene.reference_instance, match="key",
-            predicted_keys=pred_keys, reference_keys=ref_keys, reference_objects=ref,
-        )  # fmt: skip
+    ev = evaluate_by_feature(seg.instance, seg.objects, scene.reference_instance, ref)
     table = ev.table()
     with atomic_path(outdir / "result" / "evaluation.csv") as tmp:
         table.to_csv(tmp, index=False)
