@@ -3,9 +3,14 @@
 Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
 ``axedetect``, ``beamSeg``).  The pipeline reads top-down:
 
+0. clouds denser than ``thin_spacing_m`` are thinned at random for the
+   geometry (normals of over-dense noisy scans are noise); labels come back to
+   every input point at step 5;
 1. :func:`~pyheracles.segment.regiongrow.region_growing` cuts the cloud into
    smooth planar *facets* (the faces of the beams; coplanar faces of beams
-   meeting in a joint come out as one L-, T-, X- or Y-shaped facet);
+   meeting in a joint come out as one L-, T-, X- or Y-shaped facet); a region
+   that bridged two faces of a beam along a rounded edge is split by its
+   dominant normal directions;
 2. :func:`split_facet` cuts every facet into *straight facets*: bands of
    constant width found with a Hough-style search in the facet plane (the
    direction and offset whose band holds the densest line of points, longest
@@ -16,7 +21,10 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    facet, not centroid distance); a beam needs at least two facets with
    non-parallel normals (otherwise no cuboid is defined) and the rest goes
    back to the pool;
-4. :func:`fit_beam_cuboid` fits one oriented cuboid per beam from its facets;
+4. collinear pieces of one beam (cut by a crossing beam in an X joint or by
+   a shadow) are merged, and :func:`fit_beam_cuboid` fits one oriented cuboid
+   per beam from its facets, lengthened over the short ends that gave no
+   facet of their own;
 5. every point within ``surface_tolerance_m`` of a cuboid surface is given to
    the nearest cuboid (the thesis's re-merge of pool points): labels, not
    copies, and nothing is lost (the remainder is label 0).
@@ -312,11 +320,15 @@ def _plane_frame(p: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
     return c, vt[2], vt[:2]
 
 
-def _half_max_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, float]:
+def _half_max_edges(
+    values: NDArray[np.float64], bin_m: float, level_fraction: float = 0.5
+) -> tuple[float, float]:
     """Edges of the dense part of a 1-D distribution, at half its plateau density.
 
     For points uniform on an interval plus Gaussian noise the half-density points
-    are the interval's ends whatever the noise, which quantiles are not.
+    are the interval's ends whatever the noise, which quantiles are not.  A lower
+    ``level_fraction`` reaches further out where part of a face is shadowed (the
+    bias outwards is about ``0.5 sigma`` of the noise at 0.3).
     """
     lo, hi = float(values.min()), float(values.max())
     nb = max(int(np.ceil((hi - lo) / bin_m)), 1)
@@ -328,7 +340,7 @@ def _half_max_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, f
     peak = int(hist.argmax())
     # plateau level: median of the bins above a quarter of the peak (robust to spikes)
     level = float(np.median(hist[hist >= 0.25 * hist[peak]]))
-    half = 0.5 * level
+    half = level_fraction * level
     i = peak
     while i > 0 and hist[i - 1] >= half:
         i -= 1
@@ -780,10 +792,14 @@ def fit_beam_cuboid(
     if ev[1] >= 0.05 * ev.sum():
         axis = evec[:, 0] * np.sign(evec[:, 0] @ mean_axis)
     else:
-        # only parallel (opposite) faces: axis from the bands, normal to the planes
+        # only parallel (opposite) faces: normal to the planes, along the band
+        # of the cleanest face (lowest plane RMS; an occluded face may carry a
+        # neighbour's points that tilt its band)
         nrm = evec[:, 2]
-        axis = mean_axis - (mean_axis @ nrm) * nrm
+        best = min(facets, key=lambda f: f.plane_rms)
+        axis = best.axis - (best.axis @ nrm) * nrm
         axis /= np.linalg.norm(axis)
+        axis *= np.sign(axis @ mean_axis)
     # cross-section frame: the direction closer to horizontal is "width"
     big = facets[int(np.argmax(w))].normal
     u = big - (big @ axis) * axis
