@@ -203,3 +203,28 @@ def test_bad_input():
         segment_beams(np.zeros((10, 3)))
     with pytest.raises(InputError, match="min_beam_width_m"):
         BeamParams(min_beam_width_m=0.5, max_beam_width_m=0.1).validate()
+
+
+def test_cli_beams_writes_outputs(tmp_path, roof):
+    import laspy
+    import pandas as pd
+
+    from pyheracles.cli import main
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import write_cloud
+
+    sub = np.random.default_rng(0).random(len(roof.xyz)) < 0.6
+    cloud = PointCloud.from_world(roof.xyz[sub] + [500000.0, 5400000.0, 120.0])
+    src = tmp_path / "roof.laz"
+    write_cloud(cloud, src)
+    out = tmp_path / "beams"
+    assert main(["beams", str(src), "-o", str(out)]) == 0
+    las = laspy.read(out / "segmented.laz")
+    assert len(las.points) == int(sub.sum())
+    table = pd.read_csv(out / "objects.csv")
+    assert len(table) == 15 and set(table["class"]) == {"beam"}
+    assert np.bincount(np.asarray(las["instance"]))[1:].sum() == table["n_points"].sum()
+    assert (out / "beams.png").stat().st_size > 10_000
+    assert (out / "run.json").exists()
+    # bad input: a missing file is exit code 2, not a traceback
+    assert main(["beams", str(tmp_path / "missing.laz"), "-o", str(tmp_path / "x")]) == 2

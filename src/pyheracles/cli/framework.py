@@ -28,7 +28,7 @@ _HELP = "\n\n".join(
         "Examples:",
         "  heracles beams roof.laz -o out/beams",
         "  heracles beams roof.e57 --angle 10 --min-width 0.06 -o out/beams --force",
-        "  heracles demo ... (generate a truss with pyheracles.synthetic.truss)",
+        "  heracles beams big_roof.laz --voxel -o out/beams_fast",
     ]
 )
 
