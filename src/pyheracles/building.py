@@ -23,6 +23,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
+from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import SliceParams, SliceProfile, slice_profile
 from pyheracles.labels import Segmentation
@@ -36,6 +37,7 @@ __all__ = [
     "PreparedCloud",
     "attic_split",
     "level_cloud",
+    "objects_in_world",
     "prepare_building",
     "segment_attic",
     "segment_building",
@@ -448,6 +450,25 @@ def segment_building(
     found = replace(found, instance=full, objects=_to_input_frame(found.objects, cloud))
     notes = (*cloud.notes, *split.notes, *found.notes)
     return _segmentation(len(cloud.xyz), split.attic, found, notes), found, split, cloud
+
+
+def objects_in_world(objects: pd.DataFrame, cloud: PointCloud) -> pd.DataFrame:
+    """Support table in world coordinates: ``x``, ``y``, ``z_min``, ``z_max`` plus the
+    cloud's offset; a GeoDataFrame of axis points when the cloud has a CRS."""
+    import geopandas as gpd
+
+    out = objects.copy()
+    for col, k in (("x", 0), ("y", 1), ("z_min", 2), ("z_max", 2)):
+        if col in out.columns:
+            out[col] = out[col].astype(float) + float(cloud.offset[k])
+    if cloud.crs is None or "x" not in out.columns:
+        return out
+    has = out["x"].notna().to_numpy()
+    geom = gpd.GeoSeries.from_xy(
+        np.where(has, out["x"].fillna(0), np.nan), np.where(has, out["y"].fillna(0), np.nan)
+    )
+    geom[~has] = None
+    return gpd.GeoDataFrame(out, geometry=geom, crs=cloud.crs)
 
 
 def to_input_frame(points: Array, cloud: PreparedCloud) -> Array:

@@ -248,10 +248,11 @@ def select_objects(objects: pd.DataFrame, spec: Step2Spec) -> pd.DataFrame:
 def _step2(kind: str, cloud: PointCloud) -> tuple[Segmentation, Any]:
     """Run one step-2 analysis on one object's cloud."""
     if kind == "supports":
-        from pyheracles.building import segment_building
+        from pyheracles.building import objects_in_world, segment_building
 
         seg, _found, split, _ = segment_building(cloud.xyz, source=cloud.source)
-        return seg, {"attic_limit": getattr(split, "limit_z", None)}
+        seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
+        return seg, {"attic_limit_z_levelled_m": split.limit_z}
     from pyheracles.framework import segment_beams
 
     result = segment_beams(cloud)

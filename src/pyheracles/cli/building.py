@@ -46,25 +46,6 @@ _SUPPORTS_HELP = "\n\n".join(
 )
 
 
-def _objects_frame(objects: Any, cloud: Any) -> Any:
-    """Objects table in world coordinates; a GeoDataFrame of axis points with a CRS."""
-    import geopandas as gpd
-    import numpy as np
-
-    out = objects.copy()
-    for col, k in (("x", 0), ("y", 1), ("z_min", 2), ("z_max", 2)):
-        if col in out.columns:
-            out[col] = out[col].astype(float) + float(cloud.offset[k])
-    if cloud.crs is None or "x" not in out.columns:
-        return out
-    has = out["x"].notna().to_numpy()
-    geom = gpd.GeoSeries.from_xy(
-        np.where(has, out["x"].fillna(0), np.nan), np.where(has, out["y"].fillna(0), np.nan)
-    )
-    geom[~has] = None
-    return gpd.GeoDataFrame(out, geometry=geom, crs=cloud.crs)
-
-
 def _summary(title: str, seg: Any, extra_rows: list[tuple[str, str]], timings: dict) -> None:
     from rich.table import Table
 
@@ -134,7 +115,9 @@ def register(app: typer.Typer) -> None:
             )
             timings["attic"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg = replace(seg, objects=_objects_frame(seg.objects, cloud))
+            from pyheracles.building import objects_in_world
+
+            seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
             write_segmentation(
                 cloud, seg, stage, step="attic",
                 parameters={"attic": asdict(params), "units": units},
@@ -208,7 +191,9 @@ def register(app: typer.Typer) -> None:
             )  # fmt: skip
             timings["supports"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg = replace(seg, objects=_objects_frame(seg.objects, cloud))
+            from pyheracles.building import objects_in_world
+
+            seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
             write_segmentation(
                 cloud, seg, stage, step="supports",
                 parameters={"supports": asdict(params), "units": units,
