@@ -518,8 +518,8 @@ def split_facet(
         # refine the direction: the sharpest across-profile of the band's points
         in_band = (s >= lo - 1.5 * bin_m) & (s <= hi + 1.5 * bin_m)
         cand = live[in_band]
-        if len(cand) > 6000:
-            cand = gen.choice(cand, 6000, replace=False)
+        if len(cand) > 3000:
+            cand = gen.choice(cand, 3000, replace=False)
         ang = _sharpest_direction(q_all[cand], ang, np.radians(6.0), bin_m)
         ang = _sharpest_direction(q_all[cand], ang, np.radians(0.3), bin_m)
         d2 = np.array([np.cos(ang), np.sin(ang)])
@@ -723,13 +723,13 @@ def group_facets(
 
 # ----------------------------------------------------------------------------- cuboid
 def _face_points(
-    xyz: NDArray[np.float64], f: StraightFacet, bin_m: float, free: NDArray[np.bool_] | None
+    xyz: NDArray[np.float64], f: StraightFacet, bin_m: float, free: NDArray[np.float64] | None
 ) -> NDArray[np.float64]:
     """The facet's points plus the unclaimed cloud points on its plane past its band.
 
     Near an edge the normals are blended and points often stay out of every
     facet; the side of a cuboid read from a face's edge needs them back.  Taken:
-    points in no straight facet (``free``; the adjacent face's own edge strip
+    points in no straight facet (``free``, their coordinates; the adjacent face's own edge strip
     would pile up at the edge) within 3 plane RMS of the plane, inside the
     facet's length and at most 5 cm (or 10 bins) past its band on either side.
     """
@@ -742,7 +742,7 @@ def _face_points(
     margin = max(0.05, 10 * bin_m)
     lo = own.min(axis=0) - margin
     hi = own.max(axis=0) + margin
-    cand = xyz[np.all((xyz >= lo) & (xyz <= hi), axis=1) & free]
+    cand = free[np.all((free >= lo) & (free <= hi), axis=1)]
     rel = cand - f.centre
     keep = (
         (np.abs(rel @ f.normal) <= max(3.0 * f.plane_rms, bin_m))
@@ -759,7 +759,7 @@ def fit_beam_cuboid(
     facets: list[StraightFacet],
     *,
     bin_m: float,
-    free: NDArray[np.bool_] | None = None,
+    free: NDArray[np.float64] | None = None,
 ) -> BeamCuboid:
     """Oriented cuboid of a beam from its straight facets.
 
@@ -774,7 +774,8 @@ def fit_beam_cuboid(
     - each side of the cross-section comes from the plane of the face on that
       side (median offset, robust) when that face was seen, otherwise from the
       half-density edge of the adjacent faces' points (unbiased by noise),
-      including the ``free`` points (in no facet) on those faces' planes, which
+      including the ``free`` points (``(m, 3)`` coordinates of the points in no
+      facet) on those faces' planes, which
       restores the edge strips where blended normals kept points out of facets;
     - the length from the 0.5 / 99.5 % quantiles of the points along the axis.
 
@@ -867,7 +868,7 @@ def _merge_and_absorb(
     group: NDArray[np.int32],
     p: BeamParams,
     bin_m: float,
-    free: NDArray[np.bool_] | None = None,
+    free: NDArray[np.float64] | None = None,
 ) -> NDArray[np.int32]:
     """Merge collinear beam pieces and absorb lone facets lying on a beam.
 
@@ -1101,9 +1102,10 @@ def segment_beams(
     timings["group"] = time.perf_counter() - t2
     t3 = time.perf_counter()
     bin_m = max(spacing, 0.004)
-    free = np.ones(len(arr), dtype=bool)
+    free_mask = np.ones(len(arr), dtype=bool)
     for f in facets:
-        free[f.index] = False
+        free_mask[f.index] = False
+    free = arr[free_mask]
     facet_beam = _merge_and_absorb(arr, facets, group, p, bin_m, free)
     cuboids: list[BeamCuboid] = []
     final = np.zeros(len(facets), dtype=np.int32)
