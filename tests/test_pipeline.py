@@ -73,3 +73,18 @@ def test_config_errors(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="unknown step-2 analysis 'walls'"):
         Step2Spec(step="walls")
     assert main(["pipeline", str(tmp_path / "none.yml")]) == 2
+
+
+def test_step2_beams_on_a_roof_object() -> None:
+    """The pipeline's beams analysis on one object's cloud, in a national grid frame."""
+    from pyheracles.pipeline import _step2
+    from pyheracles.synthetic.truss import make_truss_roof
+
+    truss = make_truss_roof(rng=0)
+    cloud = PointCloud.from_world(truss.xyz + [500000, 5400000, 100], crs="EPSG:32632")
+    seg, info = _step2("beams", cloud)
+    seg.check_balance()
+    assert info["beams"] == len(seg.objects) >= len(truss.beams) - 1
+    assert set(seg.objects["class"]) == {"beam"}
+    # object positions are in the world frame
+    assert seg.objects["centre_x"].between(499_990, 500_100).all()
