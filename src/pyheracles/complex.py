@@ -558,6 +558,79 @@ def _auto_layer_order(
     return tuple(sorted(layers, key=lambda n: (heights[n], n)))
 
 
+@dataclass(eq=False)
+class _Site:
+    """The state one run shares across layers: points, indexes, pool and labels."""
+
+    xyz: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    index: _GridIndex
+    gindex: _GroundIndex
+    pool: NDArray[np.bool_]
+    inside_any: NDArray[np.bool_]
+    multi_echo: NDArray[np.bool_] | None
+    instance: NDArray[np.int32]
+    class_id: NDArray[np.uint8]
+
+
+def _segment_layer(
+    site: _Site,
+    name: str,
+    code: int,
+    gdf: gpd.GeoDataFrame,
+    rp: ComplexParams,
+    rows: list[dict[str, Any]],
+    geometries: list[Any],
+) -> list[Any]:
+    """One object per polygon of a layer; labels the site, appends table rows.
+
+    Returns the ``source_fid`` of the features that got no object.
+    """
+    xyz = site.xyz
+    buffer = float(rp.buffer_m)  # type: ignore[arg-type]
+    geoms = _to_local(gdf.geometry.to_numpy(), site.offset)
+    pts, poly, offpoly = _claims(geoms, buffer, xyz, site.index, site.pool, site.inside_any)
+    by_poly = np.argsort(poly, kind="stable")
+    pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
+    bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
+    levels = _ground_level(geoms, xyz, site.gindex, buffer + 5.0)
+    scattered = _scattered(xyz, pts, rp, site.multi_echo)
+    empty: list[Any] = []
+    for k in range(len(geoms)):
+        sl = slice(bounds[k], bounds[k + 1])
+        cand, cand_dist = pts[sl], offpoly[sl]
+        keep = _object_points(xyz, cand, cand_dist, scattered[sl], rp)
+        if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
+            empty.append(gdf["source_fid"].iloc[k])
+            continue
+        members = cand[keep]
+        next_id = len(rows) + 1
+        site.instance[members] = next_id
+        site.class_id[members] = code
+        site.pool[members] = False
+        z = xyz[members, 2]
+        base = levels[k] if np.isfinite(levels[k]) else float(z.min())
+        attrs = gdf.iloc[k].drop(labels=[gdf.geometry.name]).to_dict()
+        rows.append(
+            {
+                "instance": next_id,
+                "class": name,
+                "class_id": code,
+                "n_points": len(members),
+                "n_inside": int((cand_dist[keep] == 0.0).sum()),
+                "z_min": float(z.min() + site.offset[2]),
+                "z_max": float(z.max() + site.offset[2]),
+                "ground_z": float(base + site.offset[2]),
+                "height": float(z.max() - base),
+                "footprint_area_m2": float(shapely.area(_hull(xyz[members, :2]))),
+                "gis_area_m2": float(shapely.area(geoms[k])),
+                **{(f"attr_{a}" if a in _RESERVED else a): v for a, v in attrs.items()},
+            }
+        )
+        geometries.append(gdf.geometry.iloc[k])
+    return empty
+
+
 # ----------------------------------------------------------------------------- main
 def segment_complex(
     cloud: PointCloud,
@@ -639,79 +712,38 @@ def segment_complex(
     timings["layer_order"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    inside_any = _inside_any(layers, xyz, index, cloud.offset)
-    multi_echo = None
-    if "number_of_returns" in cloud.attributes:
-        multi_echo = np.asarray(cloud.attributes["number_of_returns"]) > 1
-    instance = np.zeros(n, dtype=np.int32)
-    class_id = np.zeros(n, dtype=np.uint8)
+    site = _Site(
+        xyz=xyz,
+        offset=cloud.offset,
+        index=index,
+        gindex=gindex,
+        pool=pool,
+        inside_any=_inside_any(layers, xyz, index, cloud.offset),
+        multi_echo=(
+            np.asarray(cloud.attributes["number_of_returns"]) > 1
+            if "number_of_returns" in cloud.attributes
+            else None
+        ),
+        instance=np.zeros(n, dtype=np.int32),
+        class_id=np.zeros(n, dtype=np.uint8),
+    )
     classes: dict[int, str] = {}
     rows: list[dict[str, Any]] = []
     geometries: list[Any] = []
     warnings: list[str] = []
-    next_id = 1
     for code, name in enumerate(order, start=1):
-        gdf = layers[name]
         classes[code] = name
-        geoms = _to_local(gdf.geometry.to_numpy(), cloud.offset)
-        pts, poly, offpoly = _claims(
-            geoms,
-            float(rp.buffer_m),
-            xyz,
-            index,
-            pool,
-            inside_any,  # type: ignore[arg-type]
-        )  # type: ignore[arg-type]
-        by_poly = np.argsort(poly, kind="stable")
-        pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
-        bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
-        levels = _ground_level(geoms, xyz, gindex, float(rp.buffer_m) + 5.0)  # type: ignore[arg-type]
-        scattered = _scattered(xyz, pts, rp, multi_echo)
-        empty: list[Any] = []
-        for k in range(len(geoms)):
-            sl = slice(bounds[k], bounds[k + 1])
-            cand, cand_dist = pts[sl], offpoly[sl]
-            cand_in = cand_dist == 0.0
-            keep = _object_points(xyz, cand, cand_dist, scattered[sl], rp)
-            if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
-                empty.append(gdf["source_fid"].iloc[k])
-                continue
-            members = cand[keep]
-            instance[members] = next_id
-            class_id[members] = code
-            pool[members] = False
-            z = xyz[members, 2]
-            base = levels[k] if np.isfinite(levels[k]) else float(z.min())
-            hull = _hull(xyz[members, :2])
-            attrs = gdf.iloc[k].drop(labels=[gdf.geometry.name]).to_dict()
-            rows.append(
-                {
-                    "instance": next_id,
-                    "class": name,
-                    "class_id": code,
-                    "n_points": len(members),
-                    "n_inside": int(cand_in[keep].sum()),
-                    "z_min": float(z.min() + cloud.offset[2]),
-                    "z_max": float(z.max() + cloud.offset[2]),
-                    "ground_z": float(base + cloud.offset[2]),
-                    "height": float(z.max() - base),
-                    "footprint_area_m2": float(shapely.area(hull)),
-                    "gis_area_m2": float(shapely.area(geoms[k])),
-                    **{(f"attr_{a}" if a in _RESERVED else a): v for a, v in attrs.items()},
-                }
-            )
-            geometries.append(gdf.geometry.iloc[k])
-            next_id += 1
+        empty = _segment_layer(site, name, code, layers[name], rp, rows, geometries)
         if empty:
             warnings.append(
-                f"layer {name!r}: {len(empty)} of {len(geoms)} features got no points "
+                f"layer {name!r}: {len(empty)} of {len(layers[name])} features got no points "
                 f"(source_fid {', '.join(map(str, empty[:20]))}{' ...' if len(empty) > 20 else ''})"
             )
     timings["segmentation"] = time.perf_counter() - t
 
     objects = _objects_frame(rows, geometries, layers, order, cloud)
     seg = Segmentation(
-        instance=instance, class_id=class_id, classes=classes, objects=objects,
+        instance=site.instance, class_id=site.class_id, classes=classes, objects=objects,
         ground=ground, warnings=tuple(warnings),
     )  # fmt: skip
     seg.check_balance()
