@@ -702,8 +702,7 @@ def segment_complex(
     if rp.layer_order is None:
         order = _auto_layer_order(layers, xyz, pool, gindex, index, cloud.offset)
     else:
-        unknown = [name for name in rp.layer_order if name not in layers]
-        if unknown or set(rp.layer_order) != set(layers):
+        if sorted(rp.layer_order) != sorted(layers):
             raise InputError(
                 f"layer_order {list(rp.layer_order)} must name each layer once; "
                 f"layers are {sorted(layers)}"
