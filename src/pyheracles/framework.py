@@ -32,6 +32,7 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -1034,8 +1035,6 @@ def segment_beams(
         Empty or non-finite input, or no planar facet at all (the message says
         so: the cloud holds no beam faces at this density / noise).
     """
-    import time
-
     source = None
     if isinstance(xyz, PointCloud):
         xyz.validate(what="framework cloud")
