@@ -57,7 +57,14 @@ from pyheracles.groundfilters.auto import (
 from pyheracles.groundfilters.csf import CSFParams, csf
 from pyheracles.groundfilters.refine import RefineParams, refine_ground
 from pyheracles.groundfilters.smrf import SMRFParams, smrf
-from pyheracles.groundfilters.surface import DTM, Grid, dtm_from_ground, height_above_ground
+from pyheracles.groundfilters.surface import (
+    DTM,
+    Grid,
+    RasterSampler,
+    dtm_from_ground,
+    height_above_ground,
+    rasterise_cells,
+)
 
 __all__ = [
     "DEFAULT_MAX_OBJECT_SIZE_M",
@@ -156,7 +163,12 @@ def _resolve_params(method: str, params: Any, scene: SceneMeasures | None) -> An
     return params
 
 
-def _surface_note(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: float) -> str:
+def _surface_note(
+    xyz: NDArray[np.float64],
+    mask: NDArray[np.bool_],
+    cell_m: float,
+    sampler: RasterSampler | None = None,
+) -> str:
     """Why the ground found is not terrain, or '' when it looks like terrain.
 
     - line-like ground (wall feet, a single scan line): no ground cell has all eight
@@ -164,22 +176,24 @@ def _surface_note(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: flo
     - covered ground (a floor under a ceiling): at least 97 % of the ground cells hold a
       point more than 2 m above the ground.
     """
-    grid = Grid.covering(xyz[:, :2], cell_m)
-    row, col = grid.index(xyz[:, :2])
-    occupied = np.zeros(grid.shape, dtype=bool)
-    occupied[row[mask], col[mask]] = True
+    if sampler is not None and sampler.grid.cell_m == cell_m:
+        grid, flat = sampler.grid, sampler.flat
+    else:
+        grid = Grid.covering(xyz[:, :2], cell_m)
+        flat = grid.flat_index(xyz[:, :2])
+    size = grid.shape[0] * grid.shape[1]
+    ground_flat = flat[mask]
+    occupied = np.zeros(size, dtype=bool)
+    occupied[ground_flat] = True
+    occupied = occupied.reshape(grid.shape)
     interior = ndimage.binary_erosion(occupied, structure=np.ones((3, 3), bool))
     if not interior.any():
         return (
             "no ground surface: the lowest points form lines (wall feet, a single scan "
             "line), not an area of terrain"
         )
-    flat = row * grid.shape[1] + col
-    size = grid.shape[0] * grid.shape[1]
-    low = np.full(size, np.inf)
-    np.minimum.at(low, flat[mask], xyz[mask, 2])
-    high = np.full(size, -np.inf)
-    np.maximum.at(high, flat, xyz[:, 2])
+    low = rasterise_cells(grid, ground_flat, xyz[mask, 2], "min").ravel()
+    high = rasterise_cells(grid, flat, xyz[:, 2], "max").ravel()
     ground_cells = occupied.ravel()
     covered = (high - low)[ground_cells] > _CEILING_HEIGHT_M
     if ground_cells.sum() >= 9 and covered.mean() >= _CEILING_COVER:
@@ -255,28 +269,33 @@ def extract_ground(
         scene = measure_scene(pts, max_object_size_m=max_object_size_m, slope=False)
     used = _resolve_params(method, params, scene)
     dtm: DTM | None = None
+    # the cells of the points on the filter's grid, computed once for the filter, the
+    # refinement, the surface checks and the DTM
+    sampler: RasterSampler | None = None
     if isinstance(used, AutoParams):
-        seeds, _ = smrf(pts, used.seed)
+        sampler = RasterSampler(Grid.covering(pts[:, :2], used.seed.cell_m), pts[:, :2])
+        seeds, _ = smrf(pts, used.seed, sampler=sampler)
         mask = seeds
         if seeds.any():
-            mask, dtm, _ = refine_ground(pts, seeds, used.refine)
+            mask, dtm, _ = refine_ground(pts, seeds, used.refine, sampler=sampler)
         cell = used.refine.cell_m
     elif isinstance(used, CSFParams):
         mask = csf(pts, used)
         cell = used.cloth_resolution_m
     else:
-        mask, _ = smrf(pts, used)
+        sampler = RasterSampler(Grid.covering(pts[:, :2], used.cell_m), pts[:, :2])
+        mask, _ = smrf(pts, used, sampler=sampler)
         cell = used.cell_m
     if dtm_cell_m is not None and dtm_cell_m != cell:
         cell, dtm = float(dtm_cell_m), None
     note = "" if mask.any() else "the filter found no ground point"
     if not note:
         spacing = scene.spacing_m if scene is not None else point_spacing_m(pts[:, :2])
-        note = _surface_note(pts, mask, max(cell, spacing))
+        note = _surface_note(pts, mask, max(cell, spacing), sampler)
     if note:
         return GroundResult(np.zeros(n, dtype=bool), method, used, None, scene, note)
     if dtm is None:
-        dtm = dtm_from_ground(pts, mask, cell)
+        dtm = dtm_from_ground(pts, mask, cell, sampler=sampler)
     if scene is not None:
         slope = dtm.slope()[dtm.observed]
         scene = replace(scene, slope=float(np.percentile(slope, 90)))

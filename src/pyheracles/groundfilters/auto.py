@@ -66,8 +66,7 @@ def point_spacing_m(xy: NDArray[np.float64]) -> float:
     for _ in range(2):
         cell = max(4.0 * spacing, 1e-3)
         grid = Grid.covering(xy, cell)
-        row, col = grid.index(xy)
-        flat = row * grid.shape[1] + col
+        flat = grid.flat_index(xy)
         occupied = np.count_nonzero(np.bincount(flat, minlength=grid.shape[0] * grid.shape[1]))
         spacing = np.sqrt(occupied * cell * cell / n)
     return float(spacing)

@@ -85,6 +85,8 @@ def refine_ground(
     xyz: NDArray[np.float64],
     seeds: NDArray[np.bool_],
     params: RefineParams | None = None,
+    *,
+    sampler: RasterSampler | None = None,
 ) -> tuple[NDArray[np.bool_], DTM, float]:
     """Re-classify every point against a terrain model built from ground seeds.
 
@@ -96,6 +98,9 @@ def refine_ground(
         (N,) bool ground of a first filter.
     params
         :class:`RefineParams`; None = defaults.
+    sampler
+        ``RasterSampler(Grid.covering(xyz[:, :2], params.cell_m), xyz[:, :2])`` when the
+        caller already built it (e.g. for the SMRF seeds on the same cells).
 
     Returns
     -------
@@ -108,22 +113,28 @@ def refine_ground(
     """
     p = RefineParams() if params is None else params
     xy = xyz[:, :2]
-    grid = Grid.covering(xy, p.cell_m)
-    sample = RasterSampler(grid, xy)
+    if sampler is None or sampler.grid.cell_m != p.cell_m:
+        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy)
+    grid = sampler.grid
+    x, y, z = (np.ascontiguousarray(xyz[:, i]) for i in range(3))
     mask = np.asarray(seeds, dtype=bool)
     dtm: DTM | None = None
     sigma = float("nan")
     for _ in range(int(p.iterations)):
         if not mask.any():
             break
-        z = mean_surface(grid, xy[mask], xyz[mask, 2])
-        dtm = DTM(inpaint(z), grid, np.isfinite(z))
-        residual = xyz[:, 2] - sample(dtm.z_m)
+        surface = mean_surface(grid, np.c_[x[mask], y[mask]], z[mask], flat=sampler.flat[mask])
+        dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
+        residual = sampler(dtm.z_m)
+        np.subtract(z, residual, out=residual)
         sigma = _robust_sigma(residual[mask])
         base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
-        slope = sample(dtm.slope())
-        threshold = base + p.slope_scalar * slope * p.cell_m
-        mask = (residual <= threshold) & (residual >= -p.below_factor * threshold)
+        threshold = sampler(dtm.slope())
+        threshold *= p.slope_scalar * p.cell_m
+        threshold += base
+        mask = residual <= threshold
+        threshold *= -p.below_factor
+        mask &= residual >= threshold
     if dtm is None:
         raise InputError("no ground seed to refine", hint="check the first filter's result")
     return mask, dtm, sigma

@@ -26,11 +26,16 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from pyheracles.errors import InputError
-from pyheracles.groundfilters.surface import DTM, Grid, RasterSampler, inpaint, rasterise
+from pyheracles.groundfilters.surface import (
+    DTM,
+    Grid,
+    RasterSampler,
+    inpaint,
+    rasterise,
+    rasterise_cells,
+)
 
 __all__ = ["SMRFParams", "low_outliers", "progressive_filter", "smrf"]
-
-_CROSS = ndimage.generate_binary_structure(2, 1)
 
 
 @dataclass(frozen=True)
@@ -82,8 +87,25 @@ def _disk_filter(surface: NDArray[np.float64], radius: int, op: str) -> NDArray[
     a = radius - b
     filt = ndimage.minimum_filter if op == "min" else ndimage.maximum_filter
     out = filt(surface, size=2 * a + 1, mode="nearest") if a > 0 else surface
+    ufunc = np.minimum if op == "min" else np.maximum
     for _ in range(b):
-        out = filt(out, footprint=_CROSS, mode="nearest")
+        out = _cross_filter(out, ufunc)
+    return out
+
+
+def _cross_filter(values: NDArray[np.float64], ufunc: np.ufunc) -> NDArray[np.float64]:
+    """Grey erosion / dilation with the 3x3 cross, edges replicated (``mode="nearest"``).
+
+    Four shifted in-place ``np.minimum`` / ``np.maximum`` on slices: the same result as
+    ``ndimage.minimum_filter(values, footprint=cross, mode="nearest")`` (a replicated edge
+    neighbour is the cell itself) at a third of the cost; the opening loop calls it
+    ~200 times per SMRF run.
+    """
+    out = values.copy()
+    ufunc(out[1:], values[:-1], out=out[1:])
+    ufunc(out[:-1], values[1:], out=out[:-1])
+    ufunc(out[:, 1:], values[:, :-1], out=out[:, 1:])
+    ufunc(out[:, :-1], values[:, 1:], out=out[:, :-1])
     return out
 
 
@@ -148,7 +170,10 @@ def low_outliers(
 
 
 def smrf(
-    xyz: NDArray[np.float64], params: SMRFParams | None = None
+    xyz: NDArray[np.float64],
+    params: SMRFParams | None = None,
+    *,
+    sampler: RasterSampler | None = None,
 ) -> tuple[NDArray[np.bool_], DTM]:
     """Classify ground with the Simple Morphological Filter.
 
@@ -158,6 +183,9 @@ def smrf(
         (N, 3) float64 points, local frame, metres.
     params
         :class:`SMRFParams`; None = defaults.
+    sampler
+        ``RasterSampler(Grid.covering(xyz[:, :2], params.cell_m), xyz[:, :2])`` when the
+        caller already built it (shared with a refinement or a DTM); built here otherwise.
 
     Returns
     -------
@@ -175,8 +203,11 @@ def smrf(
     """
     p = SMRFParams() if params is None else params
     xy = xyz[:, :2]
-    grid = Grid.covering(xy, p.cell_m)
-    zmin = rasterise(grid, xy, xyz[:, 2], "min")
+    if sampler is None or sampler.grid.cell_m != p.cell_m:
+        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy)
+    grid = sampler.grid
+    z = xyz[:, 2]
+    zmin = rasterise_cells(grid, sampler.flat, z, "min")
     empty = np.isnan(zmin)
     zfilled = inpaint(zmin)
     # low outliers: the filter run on the inverted surface, window of one cell, slope 5
@@ -190,8 +221,10 @@ def smrf(
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
     provisional = DTM(inpaint(np.where(keep, zmin, np.nan)), grid, keep)
-    sample = RasterSampler(grid, xy)
-    ground_z = sample(provisional.z_m)
-    dtm_slope = sample(provisional.slope())
-    mask = np.abs(xyz[:, 2] - ground_z) <= p.threshold_m + p.scalar * dtm_slope
-    return mask, provisional
+    residual = sampler(provisional.z_m)
+    np.subtract(z, residual, out=residual)
+    np.abs(residual, out=residual)
+    tolerance = sampler(provisional.slope())
+    tolerance *= p.scalar
+    tolerance += p.threshold_m
+    return residual <= tolerance, provisional

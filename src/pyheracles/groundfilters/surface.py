@@ -29,6 +29,7 @@ __all__ = [
     "inpaint",
     "mean_surface",
     "rasterise",
+    "rasterise_cells",
     "sample_raster",
 ]
 
@@ -72,6 +73,25 @@ class Grid:
         np.clip(row, 0, self.shape[0] - 1, out=row)
         return row, col
 
+    def flat_index(self, xy: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Row-major flat index ``row * cols + col`` of the cell holding each point.
+
+        The same cells as :meth:`index`; clipped in floating point and cast once (two
+        integer clips and a multiply-add over N points cost more than the whole cast).
+        """
+        rows, cols = self.shape
+        col = np.subtract(xy[:, 0], self.x0_m)
+        col /= self.cell_m
+        np.floor(col, out=col)
+        np.clip(col, 0, cols - 1, out=col)
+        row = np.subtract(self.y0_m, xy[:, 1])
+        row /= self.cell_m
+        np.floor(row, out=row)
+        np.clip(row, 0, rows - 1, out=row)
+        row *= cols
+        row += col
+        return row.astype(np.intp)
+
     def fractional_index(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """(2, N) fractional (row, col) of each point relative to cell centres."""
         col = (xy[:, 0] - self.x0_m) / self.cell_m - 0.5
@@ -88,8 +108,22 @@ def rasterise(
     """Per-cell statistic of ``z`` over the points falling in each cell; NaN where empty."""
     if statistic not in ("min", "max", "mean"):
         raise ValueError(f"statistic must be one of 'min', 'max', 'mean', got {statistic!r}")
-    row, col = grid.index(xy)
-    flat = row * grid.shape[1] + col
+    return rasterise_cells(grid, grid.flat_index(xy), z, statistic)
+
+
+def rasterise_cells(
+    grid: Grid,
+    flat: NDArray[np.intp],
+    z: NDArray[np.float64],
+    statistic: Literal["min", "max", "mean"] = "min",
+) -> NDArray[np.float64]:
+    """:func:`rasterise` with the points' flat cell indices already known (``Grid.flat_index``).
+
+    ``np.minimum.at`` is kept: in numpy >= 2 it runs at ~3 ns a point, an order of
+    magnitude faster than sorting the points by cell for ``np.minimum.reduceat``.
+    """
+    if statistic not in ("min", "max", "mean"):
+        raise ValueError(f"statistic must be one of 'min', 'max', 'mean', got {statistic!r}")
     size = grid.shape[0] * grid.shape[1]
     if statistic == "mean":
         count = np.bincount(flat, minlength=size).astype(np.float64)
@@ -123,18 +157,43 @@ class RasterSampler:
     reproduced exactly everywhere. Hand-written instead of ``ndimage.map_coordinates``
     because the refinement samples several rasters at the same points: the indices and
     weights are shared, and a gather is ~10x faster than the general spline machinery.
+
+    It also keeps the cell of each point (:attr:`flat`, as :meth:`Grid.flat_index`), so one
+    sampler built per cloud serves the rasterising, the sampling and the checks of a run.
     """
 
     def __init__(self, grid: Grid, xy: NDArray[np.float64]) -> None:
         rows, cols = grid.shape
-        frac = grid.fractional_index(xy) + 1.0  # in the padded raster
-        r = np.clip(frac[0], 0.0, rows + 1.0)
-        c = np.clip(frac[1], 0.0, cols + 1.0)
-        r0 = np.minimum(np.floor(r).astype(np.intp), rows)
-        c0 = np.minimum(np.floor(c).astype(np.intp), cols)
-        self._wr = r - r0
-        self._wc = c - c0
-        self._k00 = r0 * (cols + 2) + c0
+        # fractional column / row in cell units from the west / north edge, computed once
+        u = np.subtract(xy[:, 0], grid.x0_m)
+        u /= grid.cell_m
+        v = np.subtract(grid.y0_m, xy[:, 1])
+        v /= grid.cell_m
+        index_type = np.int32 if (rows + 2) * (cols + 2) < 2**31 else np.intp
+        c0 = np.floor(u)
+        r0 = np.floor(v)
+        np.clip(c0, 0, cols - 1, out=c0)
+        np.clip(r0, 0, rows - 1, out=r0)
+        r0 *= cols
+        r0 += c0
+        self.flat: NDArray[np.integer] = r0.astype(index_type)
+        """(N,) row-major index of the cell holding each point (as :meth:`Grid.flat_index`)."""
+        # bilinear corner in the padded raster: fractional index relative to cell centres + 1
+        u += 0.5
+        v += 0.5
+        np.clip(u, 0.0, cols + 1.0, out=u)
+        np.clip(v, 0.0, rows + 1.0, out=v)
+        np.floor(u, out=c0)
+        np.minimum(c0, cols, out=c0)
+        r0 = np.floor(v)
+        np.minimum(r0, rows, out=r0)
+        u -= c0
+        v -= r0
+        self._wc = u
+        self._wr = v
+        r0 *= cols + 2
+        r0 += c0
+        self._k00 = r0.astype(index_type)
         self._cols = cols + 2
         self.grid = grid
 
@@ -142,9 +201,21 @@ class RasterSampler:
         """Values of the raster (shaped like the grid) at the points."""
         flat = _pad_linear(values).ravel()
         k, w = self._k00, self._cols
-        top = flat[k] + self._wc * (flat[k + 1] - flat[k])
-        bottom = flat[k + w] + self._wc * (flat[k + w + 1] - flat[k + w])
-        return top + self._wr * (bottom - top)
+        # the four corners gathered through shifted views: no index arithmetic per point
+        f00 = flat[k]
+        top = flat[1:][k]
+        top -= f00
+        top *= self._wc
+        top += f00
+        f10 = flat[w:][k]
+        bottom = flat[w + 1 :][k]
+        bottom -= f10
+        bottom *= self._wc
+        bottom += f10
+        bottom -= top
+        bottom *= self._wr
+        bottom += top
+        return bottom
 
 
 def sample_raster(
@@ -163,17 +234,22 @@ def _gradient(values: NDArray[np.float64], cell_m: float) -> tuple[NDArray, NDAr
 
 
 def mean_surface(
-    grid: Grid, xy: NDArray[np.float64], z: NDArray[np.float64]
+    grid: Grid,
+    xy: NDArray[np.float64],
+    z: NDArray[np.float64],
+    *,
+    flat: NDArray[np.integer] | None = None,
 ) -> NDArray[np.float64]:
     """Height of the points' surface at each cell centre; NaN where no point falls.
 
     The mean height of a cell's points is the surface at their centroid, not at the cell
     centre: on a 45° slope with points bunched on one side the two differ by up to half a
     cell. The mean is moved to the centre with the raster's own gradient (one linear
-    correction step: exact on planes).
+    correction step: exact on planes). ``flat``: the points' cells when already known
+    (:attr:`RasterSampler.flat` of the points); computed from ``xy`` otherwise.
     """
-    row, col = grid.index(xy)
-    flat = row * grid.shape[1] + col
+    if flat is None:
+        flat = grid.flat_index(xy)
     size = grid.shape[0] * grid.shape[1]
     count = np.bincount(flat, minlength=size).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -295,7 +371,13 @@ class DTM:
         return Affine(g.cell_m, 0.0, g.x0_m + ox, 0.0, -g.cell_m, g.y0_m + oy)
 
 
-def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: float) -> DTM:
+def dtm_from_ground(
+    xyz: NDArray[np.float64],
+    mask: NDArray[np.bool_],
+    cell_m: float,
+    *,
+    sampler: RasterSampler | None = None,
+) -> DTM:
     """Raster the ground points of a cloud into a gap-free :class:`DTM`.
 
     Parameters
@@ -306,6 +388,9 @@ def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: f
         (N,) bool, True for ground points.
     cell_m
         Cell size in metres.
+    sampler
+        ``RasterSampler(Grid.covering(xyz[:, :2], cell_m), xyz[:, :2])`` when the caller
+        already built it (its cells are reused); None = computed here.
 
     Returns
     -------
@@ -331,8 +416,11 @@ def dtm_from_ground(xyz: NDArray[np.float64], mask: NDArray[np.bool_], cell_m: f
             hint="use method='none' for clouds without ground (building interiors) "
             "or check the ground filter parameters",
         )
-    grid = Grid.covering(xyz[:, :2], cell_m)
-    z = mean_surface(grid, xyz[mask, :2], xyz[mask, 2])
+    if sampler is not None and sampler.grid.cell_m == cell_m:
+        grid, flat = sampler.grid, sampler.flat[mask]
+    else:
+        grid, flat = Grid.covering(xyz[:, :2], cell_m), None
+    z = mean_surface(grid, xyz[mask, :2], xyz[mask, 2], flat=flat)
     observed = np.isfinite(z)
     return DTM(inpaint(z), grid, observed)
 
