@@ -273,7 +273,9 @@ def extract_ground(
     # refinement, the surface checks and the DTM
     sampler: RasterSampler | None = None
     if isinstance(used, AutoParams):
-        sampler = RasterSampler(Grid.covering(pts[:, :2], used.seed.cell_m), pts[:, :2])
+        sampler = RasterSampler(
+            Grid.covering(pts[:, :2], used.seed.cell_m), pts[:, :2], dtype=np.float32
+        )
         seeds, _ = smrf(pts, used.seed, sampler=sampler)
         mask = seeds
         if seeds.any():
@@ -283,7 +285,9 @@ def extract_ground(
         mask = csf(pts, used)
         cell = used.cloth_resolution_m
     else:
-        sampler = RasterSampler(Grid.covering(pts[:, :2], used.cell_m), pts[:, :2])
+        sampler = RasterSampler(
+            Grid.covering(pts[:, :2], used.cell_m), pts[:, :2], dtype=np.float32
+        )
         mask, _ = smrf(pts, used, sampler=sampler)
         cell = used.cell_m
     if dtm_cell_m is not None and dtm_cell_m != cell:

@@ -114,10 +114,13 @@ def refine_ground(
     p = RefineParams() if params is None else params
     xy = xyz[:, :2]
     if sampler is None or sampler.grid.cell_m != p.cell_m:
-        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy)
+        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy, dtype=np.float32)
     grid = sampler.grid
     x, y, z = (np.ascontiguousarray(xyz[:, i]) for i in range(3))
     mask = np.asarray(seeds, dtype=bool)
+    # heights relative to the lowest seed, in the sampler's precision (float32: µm steps)
+    zref = float(z[mask].min()) if mask.any() else 0.0
+    zrel = (z - zref).astype(sampler.dtype, copy=False)
     dtm: DTM | None = None
     sigma = float("nan")
     for _ in range(int(p.iterations)):
@@ -125,8 +128,8 @@ def refine_ground(
             break
         surface = mean_surface(grid, np.c_[x[mask], y[mask]], z[mask], flat=sampler.flat[mask])
         dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
-        residual = sampler(dtm.z_m)
-        np.subtract(z, residual, out=residual)
+        residual = sampler(dtm.z_m - zref)
+        np.subtract(zrel, residual, out=residual)
         sigma = _robust_sigma(residual[mask])
         base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
         threshold = sampler(dtm.slope())

@@ -169,6 +169,12 @@ def low_outliers(
     return np.isfinite(floor) & (xyz[:, 2] < floor - drop_m)
 
 
+def _relative_heights(z: NDArray[np.float64], zref: float, dtype: np.dtype) -> NDArray:
+    """``z - zref`` in ``dtype`` (the sampler's precision)."""
+    out = np.subtract(z, zref)
+    return out.astype(dtype, copy=False)
+
+
 def smrf(
     xyz: NDArray[np.float64],
     params: SMRFParams | None = None,
@@ -204,7 +210,7 @@ def smrf(
     p = SMRFParams() if params is None else params
     xy = xyz[:, :2]
     if sampler is None or sampler.grid.cell_m != p.cell_m:
-        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy)
+        sampler = RasterSampler(Grid.covering(xy, p.cell_m), xy, dtype=np.float32)
     grid = sampler.grid
     z = xyz[:, 2]
     zmin = rasterise_cells(grid, sampler.flat, z, "min")
@@ -221,8 +227,10 @@ def smrf(
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
     provisional = DTM(inpaint(np.where(keep, zmin, np.nan)), grid, keep)
-    residual = sampler(provisional.z_m)
-    np.subtract(z, residual, out=residual)
+    # heights relative to the lowest kept cell: float32 samplers stay at µm resolution
+    zref = float(zmin[keep].min())
+    residual = sampler(provisional.z_m - zref)
+    np.subtract(_relative_heights(z, zref, sampler.dtype), residual, out=residual)
     np.abs(residual, out=residual)
     tolerance = sampler(provisional.slope())
     tolerance *= p.scalar

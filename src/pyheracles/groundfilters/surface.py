@@ -158,11 +158,18 @@ class RasterSampler:
     because the refinement samples several rasters at the same points: the indices and
     weights are shared, and a gather is ~10x faster than the general spline machinery.
 
+    ``dtype=np.float32`` halves the memory traffic of the per-point arithmetic (about twice
+    as fast on millions of points); the filters use it on heights taken relative to a
+    reference level (float32 resolves 8 µm at 100 m, thresholds are >= 5 cm), the public
+    :func:`sample_raster` / :meth:`DTM.sample` stay in float64.
+
     It also keeps the cell of each point (:attr:`flat`, as :meth:`Grid.flat_index`), so one
     sampler built per cloud serves the rasterising, the sampling and the checks of a run.
     """
 
-    def __init__(self, grid: Grid, xy: NDArray[np.float64]) -> None:
+    def __init__(
+        self, grid: Grid, xy: NDArray[np.float64], *, dtype: type[np.floating] = np.float64
+    ) -> None:
         rows, cols = grid.shape
         # fractional column / row in cell units from the west / north edge, computed once
         u = np.subtract(xy[:, 0], grid.x0_m)
@@ -189,8 +196,9 @@ class RasterSampler:
         np.minimum(r0, rows, out=r0)
         u -= c0
         v -= r0
-        self._wc = u
-        self._wr = v
+        self.dtype = np.dtype(dtype)
+        self._wc = u.astype(self.dtype, copy=False)
+        self._wr = v.astype(self.dtype, copy=False)
         r0 *= cols + 2
         r0 += c0
         self._k00 = r0.astype(index_type)
@@ -198,8 +206,8 @@ class RasterSampler:
         self.grid = grid
 
     def __call__(self, values: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Values of the raster (shaped like the grid) at the points."""
-        flat = _pad_linear(values).ravel()
+        """Values of the raster (shaped like the grid) at the points, in :attr:`dtype`."""
+        flat = _pad_linear(values).ravel().astype(self.dtype, copy=False)
         k, w = self._k00, self._cols
         # the four corners gathered through shifted views: no index arithmetic per point
         f00 = flat[k]
