@@ -277,9 +277,10 @@ def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
 
     Every unknown cell takes the mean of its four neighbours, known cells are fixed:
     the discrete Laplace equation, solved as one sparse system over the unknown cells
-    only. This is the "springs" inpainting Pingel et al. (2013) use for SMRF
-    (D'Errico's ``inpaint_nans``); hand-written because scikit-image's biharmonic
-    inpainting is an order of magnitude slower on rasters with large holes.
+    only (reduced to its black cells, :func:`_solve_red_black`). This is the "springs"
+    inpainting Pingel et al. (2013) use for SMRF (D'Errico's ``inpaint_nans``); hand-written
+    because scikit-image's biharmonic inpainting is an order of magnitude slower on rasters
+    with large holes.
 
     Raises
     ------
@@ -314,16 +315,47 @@ def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
         np.add.at(rhs, src[~is_unknown], out[nr[~is_unknown], nc[~is_unknown]])
     i_all = np.concatenate(i_idx)
     j_all = np.concatenate(j_idx)
-    ids = np.arange(n_unknown)
-    a = sparse.csr_matrix(
-        (
-            np.concatenate([diag, -np.ones(i_all.size)]),
-            (np.concatenate([ids, i_all]), np.concatenate([ids, j_all])),
-        ),
-        shape=(n_unknown, n_unknown),
-    )
-    out[unknown] = spsolve(a.tocsc(), rhs)
+    out[unknown] = _solve_red_black((ur + uc) % 2 == 0, diag, i_all, j_all, rhs)
     return out
+
+
+def _solve_red_black(
+    red: NDArray[np.bool_],
+    diag: NDArray[np.float64],
+    i_all: NDArray[np.int64],
+    j_all: NDArray[np.int64],
+    rhs: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Solve ``(diag(diag) - C) x = rhs`` where ``C`` holds a 1 for each unknown pair (i, j).
+
+    The 5-point stencil only couples cells of opposite checkerboard colour, so the red
+    cells are eliminated exactly with a diagonal block: the sparse LU then runs on the
+    Schur complement over the black cells only (half the columns; SuperLU's cost here is
+    about 1 µs per column whatever the ordering, so this halves it), and the red cells
+    follow by back-substitution.
+    """
+    ri = np.flatnonzero(red)
+    bi = np.flatnonzero(~red)
+    x = np.empty(rhs.size)
+    d_r = diag[ri]
+    if bi.size == 0:  # isolated red cells only: every neighbour is known
+        x[ri] = rhs[ri] / d_r
+        return x
+    pos = np.empty(rhs.size, dtype=np.int64)
+    pos[ri] = np.arange(ri.size)
+    pos[bi] = np.arange(bi.size)
+    from_red = red[i_all]  # each pair appears twice; keep the red -> black direction
+    arb = sparse.csr_matrix(
+        (-np.ones(int(from_red.sum())), (pos[i_all[from_red]], pos[j_all[from_red]])),
+        shape=(ri.size, bi.size),
+    )
+    abr = arb.T.tocsr()
+    inv_r = 1.0 / d_r
+    schur = sparse.diags(diag[bi]) - abr @ sparse.diags(inv_r) @ arb
+    x_b = spsolve(schur.tocsc(), rhs[bi] - abr @ (rhs[ri] * inv_r))
+    x[bi] = x_b
+    x[ri] = (rhs[ri] - arb @ x_b) * inv_r
+    return x
 
 
 @dataclass(frozen=True, eq=False)
