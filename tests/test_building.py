@@ -19,7 +19,7 @@ from pyheracles.building import (
 )
 from pyheracles.errors import InputError
 from pyheracles.evaluate import evaluate_objects
-from pyheracles.supports import SupportParams, detect_supports
+from pyheracles.supports import SupportParams, detect_supports, section_islands
 from pyheracles.synthetic.buildings import SCENES, BuildingScene, building_scene
 
 SPACING = 0.06  # coarse enough for fast tests, fine enough for 14 cm gaps between twins
@@ -275,3 +275,37 @@ def test_one_sided_scan_of_the_supports(kind: str, scanner: tuple[float, float],
     assert got == scene.supports["class"].value_counts().to_dict()
     ev = evaluate_objects(found.instance, scene.instance[keep])
     assert ev.objects["f1"].median() >= 0.93
+
+
+@pytest.mark.parametrize("dense", [True, False])
+def test_raster_islands_of_the_height_search_match_the_exact_clustering(
+    scenes, dense: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The cell-grid islands used to choose the section height find the same support
+    islands (place and size) as the exact Euclidean clustering of the same slab."""
+    import pyheracles.supports as sup
+
+    if not dense:  # the sort path for sites too large for a dense cell table
+        monkeypatch.setattr(sup, "_DENSE_CELLS", 0)
+    scene = scenes["choir"]
+    p = scene.xyz
+    order = np.argsort(p[:, 2])
+    params = SupportParams()
+    distance, half = 0.1, 0.15
+    grid = sup._SlabGrid(p, order, distance / 2)
+    zs = p[order, 2]
+    for h in (1.0, 2.0, 4.0):  # fence and chairs below 3 m, plain columns above
+        s, e = np.searchsorted(zs, [h - half, h + half])
+        centres, lengths = grid.support_islands(int(s), int(e), params)
+        exact = [
+            i
+            for i in section_islands(p[order[s:e], :2], params, distance, with_shapes=False)
+            if i.kind == "support"
+        ]
+        assert len(centres) == len(exact) >= 5
+        ref = np.array([i.center for i in exact])
+        d = np.linalg.norm(centres[:, None] - ref[None], axis=2)
+        nearest = d.argmin(axis=1)
+        assert d.min(axis=1).max() < 0.05  # the persistence test allows 0.15 m
+        ref_len = np.array([float(i.size[0]) for i in exact])[nearest]
+        np.testing.assert_allclose(lengths, ref_len, atol=0.06)

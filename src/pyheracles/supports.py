@@ -44,6 +44,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from pyheracles.geometry.fitting import (
@@ -53,8 +55,8 @@ from pyheracles.geometry.fitting import (
     fit_oriented_box,
     min_area_rectangle,
 )
-from pyheracles.geometry.sections import circularity
-from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
+from pyheracles.geometry.sections import circularity, sort_order
+from pyheracles.segment.euclidean import euclidean_clusters, relabel_by_size, voxel_clusters
 
 __all__ = ["Island", "SupportParams", "SupportResult", "detect_supports", "section_islands"]
 
@@ -195,14 +197,15 @@ class SupportResult:
 
 
 # ------------------------------------------------------------------------------ helpers
-def _spacing(xyz: Array, rng: np.random.Generator) -> float:
+def _spacing(xyz: Array, z_sorted: Array, rng: np.random.Generator) -> float:
     """Median 3D nearest-neighbour distance on a thick mid-height slab (surface spacing)."""
     z = xyz[:, 2]
-    lo, hi = np.quantile(z, [0.3, 0.7])
-    cand = np.flatnonzero((z >= lo) & (z <= hi))
+    lo, hi = np.quantile(z_sorted, [0.3, 0.7], method="linear")
+    slab = np.flatnonzero((z >= lo) & (z <= hi))
+    cand = slab
     if len(cand) > 100_000:
         cand = rng.choice(cand, 100_000, replace=False)
-    pts = xyz[cand]
+    pts = np.take(xyz, cand, axis=0)
     if len(pts) < 10:
         return 0.05
     tree = cKDTree(pts)
@@ -210,7 +213,7 @@ def _spacing(xyz: Array, rng: np.random.Generator) -> float:
     d, _ = tree.query(q, k=2)
     d = d[:, 1][d[:, 1] > 0]
     # the sub-sampling inflates the distance by sqrt(total / kept) on a surface
-    inflate = np.sqrt(max(len(cand), 1) / max(np.count_nonzero((z >= lo) & (z <= hi)), 1))
+    inflate = np.sqrt(max(len(cand), 1) / max(len(slab), 1))
     return float(np.median(d) * inflate) if len(d) else 0.05
 
 
@@ -266,6 +269,19 @@ def _trimmed_rms(residuals: Array, keep: float = 0.9) -> float:
     return float(np.sqrt(np.mean(r[: max(1, int(keep * len(r)))] ** 2)))
 
 
+def _island_kind(length: Array, width: Array, params: SupportParams) -> NDArray[np.str_]:
+    """``noise``, ``wall`` or ``support`` from an island's length and width (metres)."""
+    elongated = length > params.wall_min_aspect * np.maximum(width, 1e-6)
+    wall = (length > params.max_support_size_m) | ((length > 1.0) & elongated)
+    # a short straight piece (a wall fragment, a board, a railing) is noise
+    short = elongated | (width < 0.5 * params.min_support_size_m)
+    return np.select(
+        [length < params.min_support_size_m, wall, short],
+        ["noise", "wall", "noise"],
+        default="support",
+    )
+
+
 def section_islands(
     xy: Array, params: SupportParams, distance_m: float, *, with_shapes: bool = True
 ) -> list[Island]:
@@ -307,16 +323,8 @@ def section_islands(
             uv = (p - centre) @ vec[:, ::-1]
             size = np.ptp(uv, axis=0)
             angle = float(np.arctan2(vec[1, 1], vec[0, 1]))
-        length, width = float(size[0]), float(size[1])
-        elongated = length > params.wall_min_aspect * max(width, 1e-6)
-        if length < params.min_support_size_m:
-            kind = "noise"
-        elif length > params.max_support_size_m or (length > 1.0 and elongated):
-            kind = "wall"
-        elif elongated or width < 0.5 * params.min_support_size_m:
-            kind = "noise"  # a short straight piece: a wall fragment, a board, a railing
-        else:
-            kind = "support"
+        length = float(size[0])
+        kind = str(_island_kind(np.array([length]), np.array([float(size[1])]), params)[0])
         circ, c_rms, r_rms, radius = nan, nan, nan, nan
         if kind == "support" and with_shapes:
             circ = circularity(p)
@@ -334,6 +342,113 @@ def section_islands(
             )
         )
     return out
+
+
+# The 12 "forward" offsets of the 5 x 5 cell neighbourhood: with cells of half the
+# clustering distance, only these cells can hold points within that distance.
+_LINKS = tuple((di, dj) for di in range(3) for dj in range(-2, 3) if (di, dj) > (0, 0))
+_DENSE_CELLS = 8_000_000  # larger grids use a sort per slab instead of a dense scatter
+
+
+class _SlabGrid:
+    """Occupied square cells of horizontal slabs, for the section height search.
+
+    The raster stand-in for :func:`section_islands` ``(with_shapes=False)`` on many
+    slabs: each slab is reduced to its occupied cells of side ``distance / 2`` (as a
+    thinning would), each cell is represented by the centroid of its points, cells whose
+    centroids are within ``distance`` are linked, and each island is described by the
+    principal-axis extents of its cells.  Hand-written because the KD-tree pairs of every
+    candidate slab cost most of the height search, while a few thousand occupied cells
+    per slab link in milliseconds by cell-key look-ups; the final section is still
+    clustered exactly (:func:`section_islands`).
+    """
+
+    def __init__(self, xyz: Array, idx: NDArray[np.intp], cell: float) -> None:
+        self.x = xyz[:, 0][idx] if len(idx) else np.zeros(0)
+        self.y = xyz[:, 1][idx] if len(idx) else np.zeros(0)
+        self.cell = cell
+        self.ny, self.ncells = 1, 0
+        self.key = np.zeros(0, dtype=np.int64)
+        if len(idx):
+            x0, y0 = float(self.x.min()), float(self.y.min())
+            ci = ((self.x - x0) * (1.0 / cell)).astype(np.int64)  # floor: values are >= 0
+            cj = ((self.y - y0) * (1.0 / cell)).astype(np.int64)
+            self.ny = int(cj.max()) + 1
+            self.ncells = (int(ci.max()) + 1) * self.ny
+            self.key = ci * self.ny + cj
+        self.dense = 0 < self.ncells <= _DENSE_CELLS
+        if self.dense:  # a cell -> occupied-cell-number table, reset after each slab
+            self.ids = np.full(self.ncells, -1, dtype=np.int64)
+
+    def _cells(self, k: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Sorted occupied cell keys of points with keys ``k`` and each point's cell number."""
+        if not self.dense:
+            cells, inv = np.unique(k, return_inverse=True)
+            return cells, inv.ravel()
+        self.ids[k] = 0
+        cells = np.flatnonzero(self.ids == 0)
+        self.ids[cells] = np.arange(len(cells))
+        return cells, self.ids[k]
+
+    def _lookup(self, cells: NDArray[np.int64], di: int, dj: int) -> NDArray[np.int64]:
+        """Number of the occupied cell at offset ``(di, dj)`` of each cell, -1 if none."""
+        cj = cells % self.ny
+        nb = cells + di * self.ny + dj
+        valid = (cj + dj >= 0) & (cj + dj < self.ny) & (nb >= 0) & (nb < self.ncells)
+        if self.dense:
+            pos = self.ids[np.where(valid, nb, 0)]
+        else:
+            pos = np.minimum(np.searchsorted(cells, nb), len(cells) - 1)
+            pos[cells[pos] != nb] = -1
+        return np.where(valid, pos, -1)
+
+    def support_islands(self, s: int, e: int, params: SupportParams) -> tuple[Array, Array]:
+        """Centres ``(K, 2)`` and lengths ``(K,)`` of the support islands of points ``s:e``."""
+        none = (np.zeros((0, 2)), np.zeros(0))
+        if e - s < params.min_points:
+            return none
+        cells, inv = self._cells(self.key[s:e])
+        m = len(cells)
+        n_in = np.bincount(inv, minlength=m)
+        px = np.bincount(inv, self.x[s:e], minlength=m) / n_in
+        py = np.bincount(inv, self.y[s:e], minlength=m) / n_in
+        src, dst = [], []
+        for di, dj in _LINKS:  # 12 vectorised look-ups, not a loop over cells
+            pos = self._lookup(cells, di, dj)
+            hit = np.flatnonzero(pos >= 0)
+            # linked when the cells' centroids are within the clustering distance
+            d2 = (px[hit] - px[pos[hit]]) ** 2 + (py[hit] - py[pos[hit]]) ** 2
+            close = d2 <= (2 * self.cell) ** 2
+            src.append(hit[close])
+            dst.append(pos[hit][close])
+        if self.dense:
+            self.ids[cells] = -1
+        a, b = np.concatenate(src), np.concatenate(dst)
+        graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(m, m))
+        lab = relabel_by_size(connected_components(graph, directed=False)[1], params.min_points)
+        keep = lab > 0
+        if not keep.any():
+            return none
+        lab, px, py = lab[keep] - 1, px[keep], py[keep]
+        cnt = np.bincount(lab).astype(np.float64)
+        mx, my = np.bincount(lab, px) / cnt, np.bincount(lab, py) / cnt
+        dx, dy = px - mx[lab], py - my[lab]
+        sxx, syy = np.bincount(lab, dx * dx), np.bincount(lab, dy * dy)
+        sxy = np.bincount(lab, dx * dy)
+        theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # major principal axis
+        cos, sin = np.cos(theta)[lab], np.sin(theta)[lab]
+        u, v = dx * cos + dy * sin, dy * cos - dx * sin
+        k = len(cnt)
+        ext = []
+        for w in (u, v):
+            hi = np.full(k, -np.inf)
+            lo = np.full(k, np.inf)
+            np.maximum.at(hi, lab, w)
+            np.minimum.at(lo, lab, w)
+            ext.append(hi - lo)
+        length, width = ext
+        sup = _island_kind(length, width, params) == "support"
+        return np.c_[mx, my][sup], length[sup]
 
 
 def _choose_height(
@@ -356,16 +471,16 @@ def _choose_height(
     cands = np.arange(z_lo - k_off * step, z_hi + k_off * step + 1e-9, step)
     if len(cands) == 0:
         return (z_lo + z_hi) / 2, []
+    # the points of all candidate slabs, in z order: one gather, then contiguous slices
+    s0, e0 = np.searchsorted(z_sorted, [cands[0] - thickness / 2, cands[-1] + thickness / 2])
+    grid = _SlabGrid(xyz, order[s0:e0], distance / 2)
     centres: list[Array] = []
     sizes: list[Array] = []
-    for h in cands:
-        s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2])
-        # one point per (distance / 2) cell keeps every link of the clustering
-        xy = _thin2d(xyz[order[s:e], :2], distance / 2)
-        isl = section_islands(xy, params, distance, with_shapes=False)
-        sup = [i for i in isl if i.kind == "support"]
-        centres.append(np.array([i.center for i in sup]).reshape(-1, 2))
-        sizes.append(np.array([float(i.size[0]) for i in sup]))
+    for h in cands:  # loop over candidate heights
+        s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2]) - s0
+        c, length = grid.support_islands(max(int(s), 0), max(int(e), 0), params)
+        centres.append(c)
+        sizes.append(length)
     trees = [cKDTree(c) if len(c) else None for c in centres]
     score = np.zeros(len(cands), dtype=int)
     for k, c in enumerate(centres):
@@ -508,6 +623,7 @@ def detect_supports(
     *,
     spacing_m: float | None = None,
     z_order: NDArray[np.intp] | None = None,
+    z_sorted: Array | None = None,
 ) -> SupportResult:
     """Find columns, piers and engaged columns in a levelled body cloud.
 
@@ -520,8 +636,9 @@ def detect_supports(
         Detection parameters (automatic where ``None``).
     spacing_m
         Known point spacing, metres; estimated when omitted.
-    z_order
-        ``argsort`` of ``xyz[:, 2]`` when the caller has it (saves a sort).
+    z_order, z_sorted
+        ``argsort`` of ``xyz[:, 2]`` and ``xyz[z_order, 2]`` when the caller has them
+        (saves a sort).
 
     Returns
     -------
@@ -543,10 +660,13 @@ def detect_supports(
     empty = SupportResult(np.zeros(n, dtype=np.int32), _empty_table(), float("nan"), float("nan"))
     if n < params.min_points:
         return _with_note(empty, "too few points for a support search")
-    spacing = spacing_m if spacing_m is not None else _spacing(p, rng)
+    if z_order is None:
+        order, z_sorted = sort_order(p[:, 2])
+    else:
+        order = np.asarray(z_order)
+        z_sorted = p[:, 2][order] if z_sorted is None else np.asarray(z_sorted)
+    spacing = spacing_m if spacing_m is not None else _spacing(p, z_sorted, rng)
     sc = _scales(spacing, params)
-    order = np.argsort(p[:, 2]) if z_order is None else np.asarray(z_order)
-    z_sorted = p[order, 2]
     z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
 
     # 1. section height: given, or where support islands are most numerous and stable
@@ -686,11 +806,14 @@ def _cookies(
     shape only, so the cost is one pass over the cloud plus a sort of a few %.
     """
     cell = 0.25
-    xy0 = p[:, :2].min(axis=0)
-    ij = np.floor((p[:, :2] - xy0) / cell).astype(np.int64)
-    width = int(ij[:, 0].max()) + 1
-    height = int(ij[:, 1].max()) + 1
-    keys = ij[:, 1] * width + ij[:, 0]
+    x0, y0 = float(p[:, 0].min()), float(p[:, 1].min())
+    ci = ((p[:, 0] - x0) * (1.0 / cell)).astype(np.int64)  # floor: values are >= 0
+    cj = ((p[:, 1] - y0) * (1.0 / cell)).astype(np.int64)
+    width = int(ci.max()) + 1
+    height = int(cj.max()) + 1
+    keys = cj * width + ci
+    del ci, cj
+    xy0 = np.array([x0, y0])
     near = np.zeros((height, width), dtype=bool)
     boxes = []
     for sh in shapes:
@@ -702,17 +825,15 @@ def _cookies(
         near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
         boxes.append((lo, hi))
     cand = np.flatnonzero(near.ravel()[keys])
-    korder = cand[np.argsort(keys[cand], kind="stable")]
-    ksorted = keys[korder]
+    srt, ksorted = sort_order(keys[cand])
+    korder = cand[srt]
     sid_l, idx_l, rho_l, ang_l = [], [], [], []
     for sid, (sh, (lo, hi)) in enumerate(zip(shapes, boxes, strict=True)):
-        parts = []
-        for row in range(lo[1], hi[1] + 1):  # loop over grid rows of one support
-            a = np.searchsorted(ksorted, row * width + lo[0], side="left")
-            b = np.searchsorted(ksorted, row * width + hi[0], side="right")
-            parts.append(korder[a:b])
-        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
-        rho, ang = _offset(p[idx, :2], sh)
+        rows = np.arange(lo[1], hi[1] + 1) * width  # grid rows of one support
+        a = np.searchsorted(ksorted, rows + lo[0], side="left")
+        b = np.searchsorted(ksorted, rows + hi[0], side="right")
+        idx = np.concatenate([korder[i:j] for i, j in zip(a, b, strict=True)])
+        rho, ang = _offset(np.take(p, idx, axis=0)[:, :2], sh)
         keep = rho <= sh["buffer"] + _RING_M
         sid_l.append(np.full(keep.sum(), sid))
         idx_l.append(idx[keep])
@@ -720,16 +841,22 @@ def _cookies(
         ang_l.append(ang[keep])
     sid_all, idx_all = np.concatenate(sid_l), np.concatenate(idx_l)
     rho_all, ang_all = np.concatenate(rho_l), np.concatenate(ang_l)
-    bufs = np.array([sh["buffer"] for sh in shapes])
-    srt = np.lexsort((rho_all / bufs[sid_all], idx_all))
-    pick = srt[np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]]
-    sid_all, idx_all, rho_all, ang_all = sid_all[pick], idx_all[pick], rho_all[pick], ang_all[pick]
-    grp = np.argsort(sid_all, kind="stable")
+    # a point in several cookies goes to the shape it is closest to (relative to the
+    # buffers); only those few points are sorted
+    shared = np.flatnonzero(np.bincount(idx_all, minlength=len(p))[idx_all] > 1)
+    keep = np.ones(len(idx_all), dtype=bool)
+    if len(shared):
+        bufs = np.array([sh["buffer"] for sh in shapes])
+        srt = shared[np.lexsort((rho_all[shared] / bufs[sid_all[shared]], idx_all[shared]))]
+        first = np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]
+        keep[srt[~first]] = False
+    sid_all, idx_all, rho_all, ang_all = sid_all[keep], idx_all[keep], rho_all[keep], ang_all[keep]
     bounds = np.r_[0, np.cumsum(np.bincount(sid_all, minlength=len(shapes)))]
     out = []
-    for sid in range(len(shapes)):
-        sel = grp[bounds[sid] : bounds[sid + 1]]
-        out.append((idx_all[sel], rho_all[sel], ang_all[sel]))
+    for sid in range(len(shapes)):  # still grouped by shape; each cookie in input order
+        sel = slice(bounds[sid], bounds[sid + 1])
+        srt, idx = sort_order(idx_all[sel])
+        out.append((idx, rho_all[sel][srt], ang_all[sel][srt]))
     return out
 
 

@@ -481,16 +481,27 @@ def fit_cylinder(
     # parameters: two small rotations of the axis (about u and w), centre offsets along
     # u and w, radius.  Parametrising around the start frame avoids the pole singularity.
     def frame(x: Array) -> tuple[Array, Array]:
-        rot = Rotation.from_rotvec(x[0] * u + x[1] * w)
-        a = rot.apply(axis0)
+        # Rodrigues' formula; the rotation axis k is orthogonal to axis0, so the k (k.a)
+        # term vanishes (written out: scipy's Rotation costs more than the residuals)
+        v = x[0] * u + x[1] * w
+        theta = float(np.sqrt(v @ v))
+        a = (
+            axis0
+            if theta == 0
+            else np.cos(theta) * axis0 + np.sin(theta) / theta * np.cross(v, axis0)
+        )
         c = c0 + x[2] * u + x[3] * w
         return a, c
 
+    q2 = np.einsum("ij,ij->i", q, q)
+
     def res(x: Array) -> Array:
+        # distance to the axis from |d|^2 - (d.a)^2 with d = q - c: two mat-vec products
         a, c = frame(x)
-        d = q - c
-        along = d @ a
-        return np.linalg.norm(d - np.outer(along, a), axis=1) - x[4]
+        qc = q @ np.c_[c, a]
+        along = qc[:, 1] - c @ a
+        dist2 = q2 - 2 * qc[:, 0] + c @ c - along**2
+        return np.sqrt(np.maximum(dist2, 0.0)) - x[4]
 
     sol = least_squares(
         res, np.array([0.0, 0.0, 0.0, 0.0, circ.radius]), loss=loss, f_scale=f_scale
