@@ -307,6 +307,9 @@ def bench_speed() -> None:
         "extract_ground_smrf": lambda p: extract_ground(p, "smrf"),
         "extract_ground_auto": lambda p: extract_ground(p, "auto"),
         "csf_package_defaults": csf_default,
+        "extract_ground_csf_auto": lambda p: extract_ground(
+            p, "csf", auto_csf_params(measure_scene(p))
+        ),
     }
     load = round(os.getloadavg()[0], 2)
     res = best_of(fns, xyz)
@@ -342,6 +345,22 @@ def bench_speed() -> None:
         reached=bool(ratio <= 1.0),
         load_average_1min_before=load,
         load_average_1min_after=round(os.getloadavg()[0], 2),
+    )
+    # the wording: automatic CSF (measured parameters, low outliers out, DTM and
+    # checks) against the package alone with its defaults
+    ratio = wall["extract_ground_csf_auto"] / wall["csf_package_defaults"]
+    emit(
+        dataset="delft_ahn3/tile1",
+        metric="csf_auto_time_over_csf_default_time",
+        value=round(ratio, 3),
+        time_s=round(wall["extract_ground_csf_auto"], 3),
+        points_per_s=round(n / wall["extract_ground_csf_auto"]),
+        cpu_s=round(cpu["extract_ground_csf_auto"], 3),
+        csf_default_time_s=round(wall["csf_package_defaults"], 3),
+        csf_default_cpu_s=round(cpu["csf_package_defaults"], 3),
+        repeats=REPEATS,
+        target="<= 1.0",
+        reached=bool(ratio <= 1.0),
     )
 
 

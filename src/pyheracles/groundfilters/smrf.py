@@ -101,8 +101,9 @@ def _cross_filter(values: NDArray[np.float64], ufunc: np.ufunc) -> NDArray[np.fl
     neighbour is the cell itself) at a third of the cost; the opening loop calls it
     ~200 times per SMRF run.
     """
-    out = values.copy()
-    ufunc(out[1:], values[:-1], out=out[1:])
+    out = np.empty_like(values)
+    ufunc(values[1:], values[:-1], out=out[1:])
+    out[0] = values[0]
     ufunc(out[:-1], values[1:], out=out[:-1])
     ufunc(out[:, 1:], values[:, :-1], out=out[:, 1:])
     ufunc(out[:, :-1], values[:, 1:], out=out[:, :-1])

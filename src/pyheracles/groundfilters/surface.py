@@ -176,7 +176,9 @@ class RasterSampler:
         u /= grid.cell_m
         v = np.subtract(grid.y0_m, xy[:, 1])
         v /= grid.cell_m
-        index_type = np.int32 if (rows + 2) * (cols + 2) < 2**31 else np.intp
+        # np.intp, not int32: numpy converts other index types to intp on every gather and
+        # bincount (int32 made each gather ~1.6x slower)
+        index_type = np.intp
         c0 = np.floor(u)
         r0 = np.floor(v)
         np.clip(c0, 0, cols - 1, out=c0)
