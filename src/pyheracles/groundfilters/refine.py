@@ -17,7 +17,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.errors import InputError
-from pyheracles.groundfilters.surface import DTM, Grid, RasterSampler, inpaint, mean_surface
+from pyheracles.groundfilters.surface import (
+    DTM,
+    Grid,
+    RasterSampler,
+    _mean_surface_cells,
+    inpaint,
+)
 
 __all__ = ["RefineParams", "refine_ground"]
 
@@ -126,11 +132,12 @@ def refine_ground(
     for _ in range(int(p.iterations)):
         if not mask.any():
             break
-        surface = mean_surface(grid, np.c_[x[mask], y[mask]], z[mask], flat=sampler.flat[mask])
+        idx = np.flatnonzero(mask)  # one scan of the mask, then fast gathers
+        surface = _mean_surface_cells(grid, sampler.flat[idx], x[idx], y[idx], z[idx])
         dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
         residual = sampler(dtm.z_m - zref)
         np.subtract(zrel, residual, out=residual)
-        sigma = _robust_sigma(residual[mask])
+        sigma = _robust_sigma(residual[idx])
         base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
         threshold = sampler(dtm.slope())
         threshold *= p.slope_scalar * p.cell_m

@@ -82,7 +82,7 @@ class Grid:
         rows, cols = self.shape
         col = np.subtract(xy[:, 0], self.x0_m)
         col /= self.cell_m
-        np.floor(col, out=col)
+        # no floor: clipped at 0 the column is >= 0, and the final cast truncates it
         np.clip(col, 0, cols - 1, out=col)
         row = np.subtract(self.y0_m, xy[:, 1])
         row /= self.cell_m
@@ -260,12 +260,23 @@ def mean_surface(
     """
     if flat is None:
         flat = grid.flat_index(xy)
+    return _mean_surface_cells(grid, flat, xy[:, 0], xy[:, 1], z)
+
+
+def _mean_surface_cells(
+    grid: Grid,
+    flat: NDArray[np.integer],
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """:func:`mean_surface` from the points' cells and separate coordinate arrays."""
     size = grid.shape[0] * grid.shape[1]
     count = np.bincount(flat, minlength=size).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
         mz = (np.bincount(flat, weights=z, minlength=size) / count).reshape(grid.shape)
-        mx = (np.bincount(flat, weights=xy[:, 0], minlength=size) / count).reshape(grid.shape)
-        my = (np.bincount(flat, weights=xy[:, 1], minlength=size) / count).reshape(grid.shape)
+        mx = (np.bincount(flat, weights=x, minlength=size) / count).reshape(grid.shape)
+        my = (np.bincount(flat, weights=y, minlength=size) / count).reshape(grid.shape)
     rr, cc = np.indices(grid.shape)
     dx = grid.x0_m + (cc + 0.5) * grid.cell_m - mx
     dy = grid.y0_m - (rr + 0.5) * grid.cell_m - my
