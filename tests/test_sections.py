@@ -93,6 +93,11 @@ def test_sort_order_exact_with_near_ties_ints_and_nan(n: int) -> None:
     assert np.array_equal(k[order], srt)
     # stable for integer keys: equal keys keep their input order
     assert np.all(np.diff(order)[np.diff(srt) == 0] > 0)
+    # a few near-ties only: repaired locally
+    z = rng.uniform(0, 10, n)
+    z[:5] = z[5:10] + 1e-13
+    order, srt = sort_order(z)
+    assert np.array_equal(srt, np.sort(z)) and np.array_equal(z[order], srt)
     z[::7] = np.nan
     order, srt = sort_order(z)
     assert np.array_equal(srt, np.sort(z), equal_nan=True)

@@ -371,10 +371,12 @@ class _SlabGrid:
         self.key = np.zeros(0, dtype=np.int64)
         if len(idx):
             x0, y0 = float(self.x.min()), float(self.y.min())
-            ci = ((self.x - x0) * (1.0 / cell)).astype(np.int64)  # floor: values are >= 0
-            cj = ((self.y - y0) * (1.0 / cell)).astype(np.int64)
-            self.ny = int(cj.max()) + 1
-            self.ncells = (int(ci.max()) + 1) * self.ny
+            # floor (values >= 0), plus a margin of two empty cells on every side: the
+            # neighbours of an occupied cell are always inside the grid, never wrapped
+            ci = ((self.x - x0) * (1.0 / cell)).astype(np.int64) + 2
+            cj = ((self.y - y0) * (1.0 / cell)).astype(np.int64) + 2
+            self.ny = int(cj.max()) + 3
+            self.ncells = (int(ci.max()) + 3) * self.ny
             self.key = ci * self.ny + cj
         self.dense = 0 < self.ncells <= _DENSE_CELLS
         if self.dense:  # a cell -> occupied-cell-number table, reset after each slab
@@ -392,15 +394,12 @@ class _SlabGrid:
 
     def _lookup(self, cells: NDArray[np.int64], di: int, dj: int) -> NDArray[np.int64]:
         """Number of the occupied cell at offset ``(di, dj)`` of each cell, -1 if none."""
-        cj = cells % self.ny
-        nb = cells + di * self.ny + dj
-        valid = (cj + dj >= 0) & (cj + dj < self.ny) & (nb >= 0) & (nb < self.ncells)
+        nb = cells + (di * self.ny + dj)
         if self.dense:
-            pos = self.ids[np.where(valid, nb, 0)]
-        else:
-            pos = np.minimum(np.searchsorted(cells, nb), len(cells) - 1)
-            pos[cells[pos] != nb] = -1
-        return np.where(valid, pos, -1)
+            return self.ids[nb]
+        pos = np.minimum(np.searchsorted(cells, nb), len(cells) - 1)
+        pos[cells[pos] != nb] = -1
+        return pos
 
     def support_islands(self, s: int, e: int, params: SupportParams) -> tuple[Array, Array]:
         """Centres ``(K, 2)`` and lengths ``(K,)`` of the support islands of points ``s:e``."""

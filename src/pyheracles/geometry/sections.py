@@ -139,9 +139,18 @@ def sort_order(values: NDArray) -> tuple[NDArray[np.intp], NDArray]:
     key = np.sort((q << bits) | np.arange(n, dtype=np.int64))
     order = (key & ((1 << bits) - 1)).astype(np.intp)
     srt = v[order]
-    if v.dtype.kind == "f" and np.any(srt[1:] < srt[:-1]):  # ties of the quantised keys
-        fix = np.argsort(srt, kind="stable")  # almost sorted: a few runs for timsort
-        order, srt = order[fix], srt[fix]
+    if v.dtype.kind == "f":  # values that share a quantised key may be swapped
+        bad = np.flatnonzero(srt[1:] < srt[:-1])
+        if len(bad) > n // 1000:
+            fix = np.argsort(srt, kind="stable")  # almost sorted: a few runs for timsort
+            order, srt = order[fix], srt[fix]
+        elif len(bad):  # re-sort only the groups of equal keys that hold a swap
+            qs = key[bad] >> bits
+            a = np.searchsorted(key, qs << bits)
+            b = np.searchsorted(key, (qs + 1) << bits)
+            pos = np.unique(np.concatenate([np.arange(i, j) for i, j in zip(a, b, strict=True)]))
+            fix = pos[np.lexsort((srt[pos], key[pos] >> bits))]
+            order[pos], srt[pos] = order[fix], srt[fix]
     return order, srt
 
 
