@@ -307,7 +307,7 @@ def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
         return out
     if n_unknown == out.size:
         raise InputError("cannot build a surface: no cell of the raster holds a point")
-    out[unknown] = _solve_red_black(np.where(unknown, 0.0, out), unknown)[unknown]
+    out[unknown] = _solve_red_black(np.where(unknown, 0.0, out), unknown)
     return out
 
 
@@ -324,51 +324,56 @@ _BLACK_COUPLINGS = (
     ((-1, -1), ((-1, 0), (0, -1))),
 )
 _FOUR = ((-1, 0), (1, 0), (0, -1), (0, 1))
-
-
-def _neighbour_sum(padded: NDArray, pad: int, shape: tuple[int, int], offsets) -> NDArray:
-    """Sum over ``offsets`` of a raster padded by ``pad`` cells, shifted back to ``shape``."""
-    rows, cols = shape
-    total = np.zeros(shape, dtype=padded.dtype)
-    for dr, dc in offsets:
-        total += padded[pad + dr : pad + dr + rows, pad + dc : pad + dc + cols]
-    return total
+_PAD = 2
 
 
 def _solve_red_black(known: NDArray[np.float64], unknown: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Harmonic values of the ``unknown`` cells given the ``known`` ones (0 where unknown).
+    """Harmonic values of the ``unknown`` cells (row-major order) given the ``known`` ones.
 
-    Every unknown cell equals the mean of its in-grid 4-neighbours. The 5-point stencil
-    only couples cells of opposite checkerboard colour, so the red cells are eliminated
-    exactly (their block is diagonal) and the sparse LU runs on the Schur complement over
-    the black cells only: half the columns (SuperLU costs about 1 µs per column here,
-    whatever the ordering). The complement's 9-point stencil is assembled on the raster
-    directly; the red cells follow by back-substitution.
+    Every unknown cell equals the mean of its in-grid 4-neighbours (``known`` holds 0 at
+    the unknown cells). The 5-point stencil only couples cells of opposite checkerboard
+    colour, so the red cells are eliminated exactly (their block is diagonal) and the
+    sparse LU runs on the Schur complement over the black cells only: half the columns
+    (SuperLU costs about 1 µs per column here, whatever the ordering). The complement's
+    9-point stencil is gathered from rasters padded by two cells; the red cells follow by
+    back-substitution.
     """
-    shape = unknown.shape
-    kp = np.pad(known, 1)
-    rhs = _neighbour_sum(kp, 1, shape, _FOUR)  # known neighbours
-    deg = _neighbour_sum(np.pad(np.ones(shape), 1), 1, shape, _FOUR)  # in-grid neighbours
-    rr, cc = np.indices(shape)
-    even = (rr + cc) % 2 == 0
-    red = unknown & even
-    black = unknown & ~even
-    inv_red = np.zeros(shape)
-    inv_red[red] = 1.0 / deg[red]
-    x = np.zeros(shape)
-    n_black = int(black.sum())
+    rows, cols = unknown.shape
+    width = cols + 2 * _PAD
+
+    def padded(values: NDArray, fill: float = 0.0) -> NDArray:
+        return np.pad(values, _PAD, constant_values=fill).ravel()
+
+    def gather(raster: NDArray, at: NDArray[np.intp], offsets) -> NDArray:
+        total = raster[at + (offsets[0][0] * width + offsets[0][1])]
+        for dr, dc in offsets[1:]:
+            total = total + raster[at + (dr * width + dc)]
+        return total
+
+    ur, uc = np.nonzero(unknown)
+    at = (ur + _PAD) * width + (uc + _PAD)  # flat index in the padded rasters
+    rhs = gather(padded(known), at, _FOUR)  # sum of the known neighbours
+    deg = gather(padded(np.ones(unknown.shape)), at, _FOUR)  # in-grid neighbours
+    red = (ur + uc) % 2 == 0
+    black = ~red
+    at_r, at_b = at[red], at[black]
+    inv_r = 1.0 / deg[red]
+    inv_red = np.zeros((rows + 2 * _PAD) * width)
+    inv_red[at_r] = inv_r
+    rhs_red = np.zeros_like(inv_red)
+    rhs_red[at_r] = rhs[red] * inv_r
+    x = np.zeros_like(inv_red)
+    n_black = at_b.size
     if n_black:
-        ip = np.pad(inv_red, 2)
-        bid = np.full(shape, -1, dtype=np.intp)
-        bid[black] = np.arange(n_black)
-        bp = np.pad(bid, 2, constant_values=-1)
-        diag = (deg - _neighbour_sum(ip, 2, shape, _FOUR))[black]
-        rhs_b = (rhs + _neighbour_sum(np.pad(inv_red * rhs, 2), 2, shape, _FOUR))[black]
         ids = np.arange(n_black)
-        row_parts, col_parts, data_parts = [ids], [ids], [diag]
+        black_id = np.full(inv_red.size, -1, dtype=np.intp)
+        black_id[at_b] = ids
+        row_parts = [ids]
+        col_parts = [ids]
+        data_parts = [deg[black] - gather(inv_red, at_b, _FOUR)]
         for offset, through in _BLACK_COUPLINGS:
-            weight = _neighbour_sum(ip, 2, shape, through)[black]
-            other = _neighbour_sum(bp, 2, shape, (offset,))[black]
+            weight = gather(inv_red, at_b, through)
+            other = black_id[at_b + (offset[0] * width + offset[1])]
             ok = (other >= 0) & (weight != 0.0)
             row_parts.append(ids[ok])
             col_parts.append(other[ok])
@@ -377,9 +382,11 @@ def _solve_red_black(known: NDArray[np.float64], unknown: NDArray[np.bool_]) -> 
             (np.concatenate(data_parts), (np.concatenate(row_parts), np.concatenate(col_parts))),
             shape=(n_black, n_black),
         )
-        x[black] = spsolve(schur, rhs_b)
-    x[red] = ((rhs + _neighbour_sum(np.pad(x, 1), 1, shape, _FOUR)) * inv_red)[red]
-    return x
+        x[at_b] = spsolve(schur, rhs[black] + gather(rhs_red, at_b, _FOUR))
+    result = np.empty(ur.size)
+    result[black] = x[at_b]
+    result[red] = (rhs[red] + gather(x, at_r, _FOUR)) * inv_r
+    return result
 
 
 @dataclass(frozen=True, eq=False)
