@@ -60,12 +60,14 @@ def point_spacing_m(xy: NDArray[np.float64]) -> float:
     a first guess from the bounding box, then the occupied area at that scale.
     """
     n = xy.shape[0]
-    extent = np.array([np.ptp(xy[:, 0]), np.ptp(xy[:, 1])])
+    lo = np.array([xy[:, 0].min(), xy[:, 1].min()])  # bounds once for both passes
+    hi = np.array([xy[:, 0].max(), xy[:, 1].max()])
+    extent = hi - lo
     area = max(float(extent[0] * extent[1]), float(max(extent.max(), 1e-3) ** 2) / n)
     spacing = np.sqrt(area / n)
     for _ in range(2):
         cell = max(4.0 * spacing, 1e-3)
-        grid = Grid.covering(xy, cell)
+        grid = Grid.from_bounds(lo, hi, cell)
         flat = grid.flat_index(xy)
         occupied = np.count_nonzero(np.bincount(flat, minlength=grid.shape[0] * grid.shape[1]))
         spacing = np.sqrt(occupied * cell * cell / n)

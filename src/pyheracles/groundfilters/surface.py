@@ -61,6 +61,13 @@ class Grid:
         # per column: a reduction over axis 0 of a strided (N, 3)[:, :2] view is slow
         lo = np.array([xy[:, 0].min(), xy[:, 1].min()])
         hi = np.array([xy[:, 0].max(), xy[:, 1].max()])
+        return cls.from_bounds(lo, hi, cell_m)
+
+    @classmethod
+    def from_bounds(cls, lo: NDArray[np.float64], hi: NDArray[np.float64], cell_m: float) -> Grid:
+        """:meth:`covering` from the points' (min x, min y) ``lo`` and (max x, max y) ``hi``."""
+        if not np.isfinite(cell_m) or cell_m <= 0:
+            raise InputError(f"cell size must be a positive number of metres, got {cell_m!r}")
         cols = int(np.floor((hi[0] - lo[0]) / cell_m)) + 1
         rows = int(np.floor((hi[1] - lo[1]) / cell_m)) + 1
         return cls(float(lo[0]), float(hi[1]), float(cell_m), (rows, cols))
