@@ -27,7 +27,7 @@ from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import SliceParams, SliceProfile, slice_profile, sort_order
 from pyheracles.labels import Segmentation
-from pyheracles.supports import SupportParams, SupportResult, detect_supports
+from pyheracles.supports import SupportParams, SupportResult, detect_supports, one_blas_thread
 
 __all__ = [
     "CLASSES",
@@ -434,6 +434,18 @@ def segment_building(
     >>> seg.objects["class"].value_counts().to_dict()
     {'pier': 10, 'column': 4, 'attic': 1, 'body': 1}
     """
+    with one_blas_thread():
+        return _segment_building(xyz, supports, attic, prep, split_attic, source)
+
+
+def _segment_building(
+    xyz: Array,
+    supports: SupportParams | None,
+    attic: AtticParams | None,
+    prep: BuildingParams | None,
+    split_attic: bool,
+    source: str | None,
+) -> tuple[Segmentation, SupportResult, AtticSplit, PreparedCloud]:
     cloud = prepare_building(xyz, prep, source=source)
     order, z_sorted = sort_order(cloud.xyz[:, 2])  # one sort of N points for all steps
     split = (

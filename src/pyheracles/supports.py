@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+from threadpoolctl import threadpool_limits
 
 from pyheracles.geometry.fitting import (
     MSACParams,
@@ -652,6 +653,24 @@ def detect_supports(
     >>> found.objects["class"].value_counts().to_dict()
     {'engaged_column': 8, 'column': 8}
     """
+    with one_blas_thread():
+        return _detect_supports(xyz, params, spacing_m, z_order, z_sorted)
+
+
+def one_blas_thread() -> threadpool_limits:
+    """Context: BLAS on one thread.  The matrices here are thin (N x 3 and 3000 x 5);
+    OpenBLAS threads busy-wait on them and cost 0.6 s of 2.5 s on the 3.5 M point hall
+    of the benchmark (and more on a loaded machine)."""
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _detect_supports(
+    xyz: Array,
+    params: SupportParams | None,
+    spacing_m: float | None,
+    z_order: NDArray[np.intp] | None,
+    z_sorted: Array | None,
+) -> SupportResult:
     params = params or SupportParams()
     rng = np.random.default_rng(params.seed)
     p = np.asarray(xyz, dtype=np.float64)
