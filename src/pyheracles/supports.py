@@ -718,8 +718,8 @@ def _detect_supports(
         kept = _extract_support(p, idx, rho, ang, sh, params, sc, h_sec, (z0, z1))
         if kept is None:
             continue
-        cidx, crho = kept
-        row = _describe(p, cidx, crho, sh, sc.tol)
+        cidx, crho, cpts = kept
+        row = _describe(cpts, crho, sh, sc.tol)
         if sh["class"] != "pier" and not (
             abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
         ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
@@ -879,8 +879,7 @@ def _cookies(
 
 
 def _floor_ceiling(
-    p: Array,
-    idx: NDArray[np.intp],
+    pts: Array,
     ring: NDArray[np.bool_],
     h_sec: float,
     sc: _Scales,
@@ -891,13 +890,14 @@ def _floor_ceiling(
     Floor: a low quantile of the ring points below the section.  Ceiling: per 10 cm
     cell of the ring, the highest point; when most cells are covered above the section
     (flat ceiling, vault, any non-planar ceiling), a low quantile of those maxima.
+    ``pts`` are the cookie's points.
     """
-    z = p[idx, 2]
+    z = pts[:, 2]
     below = z < h_sec
     floor_pts = z[below & ring] if np.count_nonzero(below & ring) >= 10 else z[below]
     floor_z = float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z_min
     ceil_z = np.inf
-    rz = p[idx[ring]]
+    rz = pts[ring]
     if len(rz):
         cij = np.floor((rz[:, :2] - rz[:, :2].min(axis=0)) / 0.1).astype(np.int64)
         ck = cij[:, 1] * (int(cij[:, 0].max()) + 1) + cij[:, 0]
@@ -951,44 +951,46 @@ def _extract_support(
     sc: _Scales,
     h_sec: float,
     z_range: tuple[float, float],
-) -> tuple[NDArray[np.intp], Array] | None:
-    """The points of one support inside its cookie, or None if it is not one."""
+) -> tuple[NDArray[np.intp], Array, Array] | None:
+    """The points of one support inside its cookie (indices, offsets, coordinates), or
+    None if it is not one."""
+    pts = np.take(p, idx, axis=0)  # one gather of the cookie's points
     ring = rho > sh["buffer"]
-    floor_z, ceil_z = _floor_ceiling(p, idx, ring, h_sec, sc, z_range[0])
-    z = p[idx, 2]
+    floor_z, ceil_z = _floor_ceiling(pts, ring, h_sec, sc, z_range[0])
+    z = pts[:, 2]
     inside = ~ring & (z > floor_z + params.floor_tolerance_m)
     inside &= z < ceil_z - params.ceiling_tolerance_m
     if sh["class"] == "engaged_column":
-        front = p[idx, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
+        front = pts[:, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
         # an engaged column stands in a wall: the face must rise with it (a fence rail or
         # a bench touching a one-sided scanned column is no wall)
-        if _face_cover(p[idx], z, front, rho, sh, sc, floor_z, min(ceil_z, z_range[1])) < 0.5:
+        if _face_cover(pts, z, front, rho, sh, sc, floor_z, min(ceil_z, z_range[1])) < 0.5:
             sh["class"] = "column"
         else:
             inside &= front > sh["face_gap"]  # 3 sigma of the wall face off the face
-    cidx = idx[inside]
+    cidx, cpts = idx[inside], pts[inside]
     if len(cidx) < params.min_points:
         return None
     # clutter: only what is within tol of the innermost surface of each layer x sector
     n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * sc.spacing)))
     layer = max(0.05, 3.0 * sc.spacing)
-    keep = _sector_filter(rho[inside], ang[inside], p[cidx, 2], layer, min(n_sec, 72), sc.tol)
-    cidx, crho = cidx[keep], rho[inside][keep]
+    keep = _sector_filter(rho[inside], ang[inside], cpts[:, 2], layer, min(n_sec, 72), sc.tol)
+    cidx, crho, cpts = cidx[keep], rho[inside][keep], cpts[keep]
     if len(cidx) < params.min_points:
         return None
     # final clustering: keep what is connected to the section island
-    lab = voxel_clusters(p[cidx], max(0.03, 3.0 * sc.spacing), 1)
-    in_sec = np.abs(p[cidx, 2] - h_sec) <= sc.thickness / 2
+    lab = voxel_clusters(cpts, max(0.03, 3.0 * sc.spacing), 1)
+    in_sec = np.abs(cpts[:, 2] - h_sec) <= sc.thickness / 2
     good = np.unique(lab[in_sec & (lab > 0)])
     if len(good) == 0:
         return None
     conn = np.isin(lab, good)
-    cidx, crho = cidx[conn], crho[conn]
-    zz = p[cidx, 2]
+    cidx, crho, cpts = cidx[conn], crho[conn], cpts[conn]
+    zz = cpts[:, 2]
     top_ref = min(ceil_z, z_range[1])
     if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
         return None  # a chair, a sign board, a fence post: not a support
-    return cidx, crho
+    return cidx, crho, cpts
 
 
 def _detached_half_column(
@@ -1050,9 +1052,8 @@ def _offset(xy: Array, sh: dict) -> tuple[Array, Array]:
     return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)
 
 
-def _describe(p: Array, idx: NDArray[np.intp], rho: Array, sh: dict, tol: float) -> dict:
-    """Objects-table row of one support with its fitted primitive."""
-    pts = p[idx]
+def _describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
+    """Objects-table row of one support (its points ``pts``) with its fitted primitive."""
     shaft = np.abs(rho) <= tol
     fit_pts = pts[shaft] if shaft.sum() >= 20 else pts
     if len(fit_pts) > 3000:  # the fit is as good on a spread sample and much faster
@@ -1060,7 +1061,7 @@ def _describe(p: Array, idx: NDArray[np.intp], rho: Array, sh: dict, tol: float)
     nan = float("nan")
     row = {
         "class": sh["class"],
-        "n_points": len(idx),
+        "n_points": len(pts),
         "x": nan,
         "y": nan,
         "z_min": float(pts[:, 2].min()),
