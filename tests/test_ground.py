@@ -25,7 +25,7 @@ from pyheracles.ground import (
 )
 from pyheracles.groundfilters.csf import csf
 from pyheracles.groundfilters.smrf import low_outliers
-from pyheracles.groundfilters.surface import Grid, inpaint
+from pyheracles.groundfilters.surface import Grid, RasterSampler, inpaint
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -247,6 +247,48 @@ def test_inpaint_reproduces_a_plane_in_holes() -> None:
     np.testing.assert_allclose(inpaint(holed), plane, atol=1e-9)
     with pytest.raises(InputError):
         inpaint(np.full((3, 3), np.nan))
+
+
+@pytest.mark.parametrize("shape", [(1, 9), (9, 1), (2, 3), (37, 41)])
+def test_inpaint_solves_the_full_laplace_system(
+    shape: tuple[int, int], rng: np.random.Generator
+) -> None:
+    """The red-black reduced solve equals the plain 5-point Laplace system on the holes."""
+    from scipy.sparse import lil_matrix
+    from scipy.sparse.linalg import spsolve
+
+    values = rng.normal(0.0, 10.0, shape)
+    holes = rng.random(shape) < 0.6
+    holes[0, 0] = False  # at least one known cell
+    values[holes] = np.nan
+    ur, uc = np.nonzero(holes)
+    uid = {(r, c): i for i, (r, c) in enumerate(zip(ur, uc, strict=True))}
+    a = lil_matrix((len(uid), len(uid)))
+    b = np.zeros(len(uid))
+    for (r, c), i in uid.items():  # the reference, written out cell by cell (tiny grids)
+        for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if 0 <= nr < shape[0] and 0 <= nc < shape[1]:
+                a[i, i] += 1.0
+                if (nr, nc) in uid:
+                    a[i, uid[nr, nc]] -= 1.0
+                else:
+                    b[i] += values[nr, nc]
+    expected = values.copy()
+    expected[holes] = spsolve(a.tocsc(), b)
+    np.testing.assert_allclose(inpaint(values), expected, atol=1e-9)
+
+
+def test_float32_sampler_matches_float64(rng: np.random.Generator) -> None:
+    grid = Grid(0.0, 30.0, 1.0, (30, 40))
+    raster = 50.0 + rng.normal(0.0, 3.0, grid.shape)
+    xy = np.c_[rng.uniform(-2, 42, 5000), rng.uniform(-2, 32, 5000)]
+    s64 = RasterSampler(grid, xy)
+    s32 = RasterSampler(grid, xy, dtype=np.float32)
+    assert s32(raster).dtype == np.float32
+    np.testing.assert_allclose(s32(raster - 50.0) + 50.0, s64(raster), atol=1e-5)
+    np.testing.assert_array_equal(s64.flat, grid.flat_index(xy))
+    row, col = grid.index(xy)
+    np.testing.assert_array_equal(s64.flat, row * grid.shape[1] + col)
 
 
 def test_dtm_and_height_above_ground_on_a_plane(rng: np.random.Generator) -> None:
