@@ -93,6 +93,9 @@ def test_sort_order_exact_with_near_ties_ints_and_nan(n: int) -> None:
     assert np.array_equal(k[order], srt)
     # stable for integer keys: equal keys keep their input order
     assert np.all(np.diff(order)[np.diff(srt) == 0] > 0)
+    for k in (rng.integers(0, 2**62, n), rng.integers(0, 2, n).astype(bool)):
+        order, srt = sort_order(k)  # too wide for exact integer keys / not a number
+        assert np.array_equal(srt, np.sort(k)) and np.array_equal(k[order], srt)
     # a few near-ties only: repaired locally
     z = rng.uniform(0, 10, n)
     z[:5] = z[5:10] + 1e-13

@@ -381,7 +381,7 @@ class _SlabGrid:
             self.key = ci * self.ny + cj
         self.dense = 0 < self.ncells <= _DENSE_CELLS
         if self.dense:  # a cell -> occupied-cell-number table, reset after each slab
-            self.ids = np.full(self.ncells, -1, dtype=np.int64)
+            self.ids = np.full(self.ncells, -1, dtype=np.int32)
 
     def _cells(self, k: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Sorted occupied cell keys of points with keys ``k`` and each point's cell number."""
@@ -850,7 +850,8 @@ def _cookies(
         rows = np.arange(lo[1], hi[1] + 1) * width  # grid rows of one support
         a = np.searchsorted(ksorted, rows + lo[0], side="left")
         b = np.searchsorted(ksorted, rows + hi[0], side="right")
-        idx = np.concatenate([korder[i:j] for i, j in zip(a, b, strict=True)])
+        parts = [korder[i:j] for i, j in zip(a, b, strict=True)]
+        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
         rho, ang = _offset(np.take(p, idx, axis=0)[:, :2], sh)
         keep = rho <= sh["buffer"] + _RING_M
         sid_l.append(np.full(keep.sum(), sid))

@@ -130,8 +130,9 @@ def sort_order(values: NDArray) -> tuple[NDArray[np.intp], NDArray]:
         order = np.argsort(v, kind="stable")
         return order, v[order]
     lo, hi = v.min(), v.max()
-    if v.dtype.kind in "iub" and int(hi) - int(lo) < 2 ** (62 - bits):
-        q = v.astype(np.int64) - int(lo)  # exact: integers keep their order
+    exact = v.dtype.kind in "iu" and int(hi) - int(lo) < 2 ** (62 - bits)
+    if exact:  # integers keep their order (and equal keys their input order)
+        q = (v - lo).astype(np.int64)
     else:
         span = float(hi) - float(lo)
         scale = (2.0 ** (62 - bits) - 1) / span if span > 0 else 0.0
@@ -139,7 +140,7 @@ def sort_order(values: NDArray) -> tuple[NDArray[np.intp], NDArray]:
     key = np.sort((q << bits) | np.arange(n, dtype=np.int64))
     order = (key & ((1 << bits) - 1)).astype(np.intp)
     srt = v[order]
-    if v.dtype.kind == "f":  # values that share a quantised key may be swapped
+    if not exact:  # values that share a quantised key may be swapped
         bad = np.flatnonzero(srt[1:] < srt[:-1])
         if len(bad) > n // 1000:
             fix = np.argsort(srt, kind="stable")  # almost sorted: a few runs for timsort
