@@ -658,9 +658,10 @@ def detect_supports(
 
 
 def one_blas_thread() -> threadpool_limits:
-    """Context: BLAS on one thread.  The matrices here are thin (N x 3 and 3000 x 5);
-    OpenBLAS threads busy-wait on them and cost 0.6 s of 2.5 s on the 3.5 M point hall
-    of the benchmark (and more on a loaded machine)."""
+    """Context: BLAS on one thread.  The matrices here are thin (N x 3 and 3000 x 5):
+    OpenBLAS threads only busy-wait on them (without this limit the 3.5 M point hall of
+    the benchmark used ~0.2 s more CPU than wall time, a second core spinning that a
+    shared machine takes from other work)."""
     return threadpool_limits(limits=1, user_api="blas")
 
 
