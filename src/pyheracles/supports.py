@@ -218,16 +218,6 @@ def _spacing(xyz: Array, z_sorted: Array, rng: np.random.Generator) -> float:
     return float(np.median(d) * inflate) if len(d) else 0.05
 
 
-def _thin2d(xy: Array, cell: float) -> Array:
-    """One point per occupied square cell of side ``cell`` (the first in input order)."""
-    if len(xy) == 0:
-        return xy
-    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
-    keys = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
-    _, first = np.unique(keys, return_index=True)
-    return xy[np.sort(first)]
-
-
 def _rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[float, Array]:
     """RMS distance to a rectangle whose edges are re-estimated as medians (2 rounds)."""
     c, s = np.cos(angle), np.sin(angle)
