@@ -11,9 +11,7 @@ from pyheracles.errors import InputError
 __all__ = ["point_spacing"]
 
 
-def point_spacing(
-    xyz: NDArray[np.float64], *, sample: int = 50_000, seed: int = 0
-) -> float:
+def point_spacing(xyz: NDArray[np.float64], *, sample: int = 50_000, seed: int = 0) -> float:
     """Median distance from a point to its nearest neighbour, metres.
 
     Measured on at most ``sample`` random points.  On large clouds the KD-tree
