@@ -15,6 +15,7 @@ from pyheracles.ground import (
     GROUND_METHODS,
     AutoParams,
     CSFParams,
+    SceneMeasures,
     SMRFParams,
     auto_csf_params,
     auto_params,
@@ -134,7 +135,11 @@ def test_auto_csf_params_follow_slope_and_spacing(rng: np.random.Generator) -> N
     steep = measure_scene(terrain_with_buildings(rng, slope=0.6)[0])
     assert auto_csf_params(flat).rigidness == 3
     assert auto_csf_params(steep).rigidness == 1
-    assert auto_csf_params(flat).cloth_resolution_m == 1.0  # never finer than the default
+    # dense (0.5 m spacing): a 1.5 m cloth; sparse clouds keep their spacing, never below 1 m
+    assert auto_csf_params(flat).cloth_resolution_m == 1.5
+    for spacing, cloth in ((0.25, 1.5), (0.75, 1.25), (1.0, 1.0), (1.3, 1.3), (3.0, 2.0)):
+        scene = SceneMeasures(spacing_m=spacing, slope=0.0, max_object_size_m=34.0)
+        assert auto_csf_params(scene).cloth_resolution_m == pytest.approx(cloth)
     assert auto_csf_params(flat).remove_low_outliers
 
 
