@@ -53,7 +53,7 @@ __all__ = [
 GROUND_METHODS = ("auto", "csf", "smrf", "none", "class")
 _CLUSTERING = ("auto", "exact", "voxel")
 #: Above this many candidate points, ``clustering="auto"`` uses voxels.
-_EXACT_LIMIT = 50_000
+_EXACT_LIMIT = 20_000
 #: Points used at most for a polygon's ground level or height percentile.
 _LEVEL_SAMPLE = 20_000
 
@@ -250,7 +250,9 @@ class _GridIndex:
         self.ny = int(ij[:, 1].max()) + 1 if len(xy) else 1
         self.nx = int(ij[:, 0].max()) + 1 if len(xy) else 1
         keys = ij[:, 0] * self.ny + ij[:, 1]
-        self.order = np.argsort(keys)
+        # Few cells: a 16-bit key lets numpy use its linear-time radix sort.
+        small = self.nx * self.ny < np.iinfo(np.int16).max
+        self.order = np.argsort(keys.astype(np.int16), kind="stable") if small else np.argsort(keys)
         self.keys = keys[self.order]
 
     def query_box(self, xmin: float, ymin: float, xmax: float, ymax: float) -> NDArray[np.int64]:
@@ -324,15 +326,26 @@ def _claims(
     pts = np.concatenate(pts_all)
     poly = np.concatenate(poly_all)
     dist = np.concatenate(dist_all)
+    # Only points claimed by several polygons need a decision: sort just those.
+    claims = np.bincount(pts, minlength=len(pool))
+    shared = claims[pts] > 1
+    if not shared.any():
+        return pts, poly, dist
+    sp, sq, sd = pts[shared], poly[shared], dist[shared]
     # tie-break for points at the same distance (on a shared edge): the gap
     # between the point and the polygon's roof, negative gaps (above the roof) last
-    gap = roof_z[poly] - xy[pts, 2]
+    gap = roof_z[sq] - xy[sp, 2]
     gap = np.where(gap >= -0.1, gap, 1e9 - gap)
-    order = np.lexsort((poly, gap, dist, pts))  # by point, distance, roof gap, polygon
-    pts, poly, dist = pts[order], poly[order], dist[order]
-    first = np.ones(len(pts), dtype=bool)
-    first[1:] = pts[1:] != pts[:-1]
-    return pts[first], poly[first], dist[first]
+    order = np.lexsort((sq, gap, sd, sp))  # by point, distance, roof gap, polygon
+    sp, sq, sd = sp[order], sq[order], sd[order]
+    first = np.ones(len(sp), dtype=bool)
+    first[1:] = sp[1:] != sp[:-1]
+    keep = ~shared
+    return (
+        np.concatenate([pts[keep], sp[first]]),
+        np.concatenate([poly[keep], sq[first]]),
+        np.concatenate([dist[keep], sd[first]]),
+    )
 
 
 def _inside_any(
@@ -504,26 +517,20 @@ def _ground_mask(
     return np.asarray(result.mask, dtype=bool)
 
 
-class _GroundIndex:
-    """Grid index of the ground points, built once per run."""
-
-    def __init__(self, xyz: NDArray[np.float64], ground: NDArray[np.bool_]) -> None:
-        self.gidx = np.flatnonzero(ground)
-        self.index = _GridIndex(xyz[self.gidx, :2], 10.0) if len(self.gidx) else None
-
-
 def _ground_level(
-    geoms: NDArray[Any], xyz: NDArray[np.float64], gindex: _GroundIndex, radius_m: float
+    geoms: NDArray[Any],
+    xyz: NDArray[np.float64],
+    ground: NDArray[np.bool_],
+    index: _GridIndex,
+    radius_m: float,
 ) -> NDArray[np.float64]:
     """Median ground height around each polygon (NaN where no ground is near)."""
-    gidx, index = gindex.gidx, gindex.index
     levels = np.full(len(geoms), np.nan)
-    if index is None:
-        return levels
     for k, geom in enumerate(geoms):
         b = shapely.bounds(geom)
-        cand = gidx[index.query_box(b[0] - radius_m, b[1] - radius_m, b[2] + radius_m,
-                                    b[3] + radius_m)]  # fmt: skip
+        cand = index.query_box(b[0] - radius_m, b[1] - radius_m, b[2] + radius_m,
+                               b[3] + radius_m)  # fmt: skip
+        cand = cand[ground[cand]]
         if len(cand):
             step = max(1, len(cand) // _LEVEL_SAMPLE)  # a median needs no million points
             levels[k] = float(np.median(xyz[cand[::step], 2]))
@@ -534,7 +541,7 @@ def _auto_layer_order(
     layers: Mapping[str, gpd.GeoDataFrame],
     xyz: NDArray[np.float64],
     pool: NDArray[np.bool_],
-    gindex: _GroundIndex,
+    ground: NDArray[np.bool_],
     index: _GridIndex,
     offset: NDArray[np.float64],
 ) -> tuple[str, ...]:
@@ -542,7 +549,7 @@ def _auto_layer_order(
     heights: dict[str, float] = {}
     for name, gdf in layers.items():
         geoms = _to_local(gdf.geometry.to_numpy(), offset)
-        levels = _ground_level(geoms, xyz, gindex, 5.0)
+        levels = _ground_level(geoms, xyz, ground, index, 5.0)
         per_poly = []
         for k, geom in enumerate(geoms):
             cand = index.query_box(*shapely.bounds(geom))
@@ -565,7 +572,7 @@ class _Site:
     xyz: NDArray[np.float64]
     offset: NDArray[np.float64]
     index: _GridIndex
-    gindex: _GroundIndex
+    ground: NDArray[np.bool_]
     pool: NDArray[np.bool_]
     inside_any: NDArray[np.bool_]
     multi_echo: NDArray[np.bool_] | None
@@ -590,10 +597,10 @@ def _segment_layer(
     buffer = float(rp.buffer_m)  # type: ignore[arg-type]
     geoms = _to_local(gdf.geometry.to_numpy(), site.offset)
     pts, poly, offpoly = _claims(geoms, buffer, xyz, site.index, site.pool, site.inside_any)
-    by_poly = np.argsort(poly, kind="stable")
+    by_poly = np.argsort(poly.astype(np.int32), kind="stable")
     pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
     bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
-    levels = _ground_level(geoms, xyz, site.gindex, buffer + 5.0)
+    levels = _ground_level(geoms, xyz, site.ground, site.index, buffer + 5.0)
     scattered = _scattered(xyz, pts, rp, site.multi_echo)
     empty: list[Any] = []
     for k in range(len(geoms)):
@@ -697,10 +704,9 @@ def segment_complex(
 
     t = time.perf_counter()
     pool = ~ground
-    gindex = _GroundIndex(xyz, ground)
     index = _GridIndex(xyz[:, :2], max(4.0 * float(rp.buffer_m), 5.0))  # type: ignore[arg-type]
     if rp.layer_order is None:
-        order = _auto_layer_order(layers, xyz, pool, gindex, index, cloud.offset)
+        order = _auto_layer_order(layers, xyz, pool, ground, index, cloud.offset)
     else:
         if sorted(rp.layer_order) != sorted(layers):
             raise InputError(
@@ -715,7 +721,7 @@ def segment_complex(
         xyz=xyz,
         offset=cloud.offset,
         index=index,
-        gindex=gindex,
+        ground=ground,
         pool=pool,
         inside_any=_inside_any(layers, xyz, index, cloud.offset),
         multi_echo=(
