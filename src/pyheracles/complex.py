@@ -34,11 +34,11 @@ from numpy.typing import NDArray
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
+from pyheracles.geometry.neighbours import point_spacing
 from pyheracles.io.vector import align_crs, validate_polygons
 from pyheracles.labels import Segmentation
 from pyheracles.progress import track
 from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
-from pyheracles.spacing import point_spacing
 
 __all__ = [
     "GROUND_METHODS",
@@ -691,7 +691,7 @@ def segment_complex(
     t0 = time.perf_counter()
     xyz = cloud.xyz
     n = len(xyz)
-    spacing = point_spacing(xyz, seed=p.seed)
+    spacing = point_spacing(xyz, rng=p.seed)
     rp = resolve_params(p, spacing)
     timings["spacing"] = time.perf_counter() - t0
 
