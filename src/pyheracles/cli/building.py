@@ -90,14 +90,19 @@ def register(app: typer.Typer) -> None:
 
         import numpy as np
 
-        from pyheracles.building import AtticParams, BuildingParams, segment_attic, to_input_frame
+        from pyheracles.building import (
+            AtticParams,
+            BuildingParams,
+            objects_in_world,
+            segment_attic,
+            to_input_frame,
+        )
         from pyheracles.cli.common import output_dir
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
 
-        if units not in ("auto", "m", "mm"):
-            raise InputError(f"unknown --units {units!r}; expected one of auto, m, mm")
+        prep = BuildingParams(units=units)  # checks --units before any work
         try:
             params = AtticParams(interval_m=interval_m, thickness_m=thickness_m,
                                  area_change=area_change)  # fmt: skip
@@ -110,13 +115,9 @@ def register(app: typer.Typer) -> None:
             cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg, split, prepared = segment_attic(
-                cloud.xyz, params, BuildingParams(units=units), source=str(cloud_path)
-            )
+            seg, split, prepared = segment_attic(cloud.xyz, params, prep, source=str(cloud_path))
             timings["attic"] = time.perf_counter() - t
             t = time.perf_counter()
-            from pyheracles.building import objects_in_world
-
             seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
             write_segmentation(
                 cloud, seg, stage, step="attic",
@@ -162,15 +163,14 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from dataclasses import asdict, replace
 
-        from pyheracles.building import BuildingParams, segment_building
+        from pyheracles.building import BuildingParams, objects_in_world, segment_building
         from pyheracles.cli.common import output_dir
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
         from pyheracles.supports import SupportParams
 
-        if units not in ("auto", "m", "mm"):
-            raise InputError(f"unknown --units {units!r}; expected one of auto, m, mm")
+        prep = BuildingParams(units=units)  # checks --units before any work
         try:
             params = SupportParams(
                 section_height_m=section_height_m,
@@ -186,13 +186,11 @@ def register(app: typer.Typer) -> None:
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
             seg, found, split, prepared = segment_building(
-                cloud.xyz, params, prep=BuildingParams(units=units),
+                cloud.xyz, params, prep=prep,
                 split_attic=not no_attic, source=str(cloud_path),
             )  # fmt: skip
             timings["supports"] = time.perf_counter() - t
             t = time.perf_counter()
-            from pyheracles.building import objects_in_world
-
             seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
             write_segmentation(
                 cloud, seg, stage, step="supports",
