@@ -294,6 +294,7 @@ def _claims(
     index: _GridIndex,
     pool: NDArray[np.bool_],
     inside_any: NDArray[np.bool_],
+    footprints: Sequence[NDArray[np.int64]],
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
     """Which pool point goes to which polygon of one layer.
 
@@ -304,33 +305,36 @@ def _claims(
     layer (a wall's buffer must not eat the roof of the house beside it).
     A point on the shared edge of two polygons (a party wall) goes to the
     building whose roof is the lowest one above it: the upper part of a
-    taller neighbour's facade is that neighbour's.
+    taller neighbour's facade is that neighbour's.  ``footprints`` holds the
+    points inside each polygon (see :func:`_footprints`), so only points
+    outside every polygon are tested against the buffered one.
     """
     pts_all, poly_all, dist_all = [], [], []
     roof_z = np.full(len(geoms), np.inf)
     buffered = shapely.buffer(geoms, buffer_m)
     shapely.prepare(buffered)
-    shapely.prepare(geoms)
+    mark = np.zeros(len(pool), dtype=bool)
     for k in track(range(len(geoms)), "cookie-cutter", total=len(geoms)):
         cand = index.query_box(*shapely.bounds(buffered[k]))
         cand = cand[pool[cand]]
         if len(cand) == 0:
             continue
-        x, y = xy[cand, 0], xy[cand, 1]
-        in_buf = shapely.contains_xy(buffered[k], x, y)
-        cand = cand[in_buf]
-        if len(cand) == 0:
+        mark[footprints[k]] = True
+        inside = mark[cand]
+        mark[footprints[k]] = False
+        ring = cand[~inside & ~inside_any[cand]]
+        ring = ring[shapely.contains_xy(buffered[k], xy[ring, 0], xy[ring, 1])]
+        inside_pts = cand[inside]
+        if len(inside_pts) + len(ring) == 0:
             continue
-        x, y = xy[cand, 0], xy[cand, 1]
-        inside = shapely.contains_xy(geoms[k], x, y)
-        ok = inside | ~inside_any[cand]
-        cand, inside, x, y = cand[ok], inside[ok], x[ok], y[ok]
-        if inside.any():
-            roof_z[k] = float(np.percentile(xy[cand[inside], 2], 95))
+        if len(inside_pts):
+            roof_z[k] = float(np.percentile(xy[inside_pts, 2], 95))
+        cand = np.concatenate([inside_pts, ring])
         dist = np.zeros(len(cand))
-        ring = ~inside
-        if ring.any():
-            dist[ring] = shapely.distance(geoms[k], shapely.points(x[ring], y[ring]))
+        if len(ring):
+            dist[len(inside_pts) :] = shapely.distance(
+                geoms[k], shapely.points(xy[ring, 0], xy[ring, 1])
+            )
         pts_all.append(cand)
         poly_all.append(np.full(len(cand), k, dtype=np.int64))
         dist_all.append(dist)
@@ -362,19 +366,27 @@ def _claims(
     )
 
 
-def _inside_any(
+def _footprints(
     layers: Mapping[str, gpd.GeoDataFrame],
     xyz: NDArray[np.float64],
     index: _GridIndex,
     offset: NDArray[np.float64],
-) -> NDArray[np.bool_]:
-    """Points inside at least one (unbuffered) polygon of any layer."""
-    inside = np.zeros(len(xyz), dtype=bool)
-    for gdf in layers.values():
-        for geom in _to_local(gdf.geometry.to_numpy(), offset):
+) -> dict[str, list[NDArray[np.int64]]]:
+    """Indices of the points inside each (unbuffered) polygon, per layer.
+
+    One point-in-polygon test per polygon, shared by the layer order, the
+    inside-any mask and the cookie-cutter.
+    """
+    out: dict[str, list[NDArray[np.int64]]] = {}
+    for name, gdf in layers.items():
+        geoms = _to_local(gdf.geometry.to_numpy(), offset)
+        shapely.prepare(geoms)
+        per_poly = []
+        for geom in geoms:
             cand = index.query_box(*shapely.bounds(geom))
-            inside[cand[shapely.contains_xy(geom, xyz[cand, 0], xyz[cand, 1])]] = True
-    return inside
+            per_poly.append(cand[shapely.contains_xy(geom, xyz[cand, 0], xyz[cand, 1])])
+        out[name] = per_poly
+    return out
 
 
 def _cluster(xyz: NDArray[np.float64], params: ComplexParams) -> NDArray[np.int32]:
@@ -554,6 +566,7 @@ def _ground_level(
 
 def _auto_layer_order(
     layers: Mapping[str, gpd.GeoDataFrame],
+    footprints: Mapping[str, Sequence[NDArray[np.int64]]],
     xyz: NDArray[np.float64],
     pool: NDArray[np.bool_],
     ground: NDArray[np.bool_],
@@ -566,11 +579,9 @@ def _auto_layer_order(
         geoms = _to_local(gdf.geometry.to_numpy(), offset)
         levels = _ground_level(geoms, xyz, ground, index, 5.0)
         per_poly = []
-        for k, geom in enumerate(geoms):
-            cand = index.query_box(*shapely.bounds(geom))
-            cand = cand[pool[cand]]
+        for k, inside in enumerate(footprints[name]):
+            cand = inside[pool[inside]]
             cand = cand[:: max(1, len(cand) // _LEVEL_SAMPLE)]
-            cand = cand[shapely.contains_xy(geom, xyz[cand, 0], xyz[cand, 1])]
             if len(cand) < 3:
                 continue
             z90 = float(np.percentile(xyz[cand, 2], 90))
@@ -590,6 +601,7 @@ class _Site:
     ground: NDArray[np.bool_]
     pool: NDArray[np.bool_]
     inside_any: NDArray[np.bool_]
+    footprints: dict[str, list[NDArray[np.int64]]]
     multi_echo: NDArray[np.bool_] | None
     instance: NDArray[np.int32]
     class_id: NDArray[np.uint8]
@@ -611,7 +623,9 @@ def _segment_layer(
     xyz = site.xyz
     buffer = float(rp.buffer_m)  # type: ignore[arg-type]
     geoms = _to_local(gdf.geometry.to_numpy(), site.offset)
-    pts, poly, offpoly = _claims(geoms, buffer, xyz, site.index, site.pool, site.inside_any)
+    pts, poly, offpoly = _claims(
+        geoms, buffer, xyz, site.index, site.pool, site.inside_any, site.footprints[name]
+    )
     by_poly = np.argsort(poly.astype(np.int32), kind="stable")
     pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
     bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
@@ -720,8 +734,13 @@ def segment_complex(
     t = time.perf_counter()
     pool = ~ground
     index = _GridIndex(xyz[:, :2], max(4.0 * float(rp.buffer_m), 5.0))  # type: ignore[arg-type]
+    footprints = _footprints(layers, xyz, index, cloud.offset)
+    inside_any = np.zeros(n, dtype=bool)
+    for per_poly in footprints.values():
+        for inside in per_poly:
+            inside_any[inside] = True
     if rp.layer_order is None:
-        order = _auto_layer_order(layers, xyz, pool, ground, index, cloud.offset)
+        order = _auto_layer_order(layers, footprints, xyz, pool, ground, index, cloud.offset)
     else:
         if sorted(rp.layer_order) != sorted(layers):
             raise InputError(
@@ -738,7 +757,8 @@ def segment_complex(
         index=index,
         ground=ground,
         pool=pool,
-        inside_any=_inside_any(layers, xyz, index, cloud.offset),
+        inside_any=inside_any,
+        footprints=footprints,
         multi_echo=(
             np.asarray(cloud.attributes["number_of_returns"]) > 1
             if "number_of_returns" in cloud.attributes
