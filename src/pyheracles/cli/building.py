@@ -71,7 +71,7 @@ def register(app: typer.Typer) -> None:
     @app.command("attic", help=_ATTIC_HELP)
     def attic_command(
         cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Building cloud file.")],
-        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        outdir: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         interval_m: Annotated[
             float, typer.Option("--interval", help="Slice interval, metres (thesis 0.2).")
         ] = 0.2,
@@ -139,7 +139,7 @@ def register(app: typer.Typer) -> None:
     @app.command("supports", help=_SUPPORTS_HELP)
     def supports_command(
         cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Building cloud file.")],
-        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        outdir: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         section_height_m: Annotated[
             float | None,
             typer.Option("--section-height", help="Section height above the body bottom, m."),

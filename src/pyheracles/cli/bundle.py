@@ -43,7 +43,7 @@ def register(app: typer.Typer) -> None:
     @app.command("bundle", help=_HELP)
     def bundle_cmd(
         project: Annotated[Path, typer.Argument(help="Project file (.xml DBAT script, .txt PM).")],
-        out: Annotated[Path, typer.Option("-o", "--out", help="Output folder.")],
+        out: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         control: Annotated[
             Path | None, typer.Option("--control", help="Control/check point table.")
         ] = None,

@@ -21,7 +21,7 @@ def register(app: typer.Typer) -> None:
             "-l",
             help="GIS layer as NAME=PATH[:LAYERNAME]; NAME becomes the class. Repeat per layer.",
         ),
-        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         ground: str = typer.Option("auto", help="Ground: auto|csf|smrf|class|none."),
         buffer: float = typer.Option(None, help="Cookie-cutter buffer, m (auto: from spacing)."),
         distance: float = typer.Option(None, help="Clustering distance, m (auto)."),

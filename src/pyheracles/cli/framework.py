@@ -80,7 +80,7 @@ def register(app: typer.Typer) -> None:
     @app.command("beams", help=_HELP)
     def beams_command(
         cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Point cloud file.")],
-        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        outdir: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         angle_deg: Annotated[
             float | None,
             typer.Option("--angle", help="Region growing normal angle, degrees (auto)."),

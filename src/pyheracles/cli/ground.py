@@ -65,7 +65,7 @@ def register(app: typer.Typer) -> None:
     @app.command("ground", help=_HELP)
     def ground_command(
         cloud_path: Annotated[Path, typer.Argument(metavar="CLOUD", help="Point cloud file.")],
-        outdir: Annotated[Path, typer.Option("-o", "--outdir", help="Output folder.")],
+        outdir: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         method: Annotated[
             str, typer.Option("--method", "-m", help="Ground filter: auto, csf, smrf.")
         ] = "auto",
