@@ -128,6 +128,8 @@ def _short(items: Sequence[str], limit: int = 8) -> str:
 
 
 def _check_unique(ids: Sequence[str], source: str | None) -> None:
+    if len(set(ids)) == len(ids):  # fast path: point lists are built in loops (propagation)
+        return
     s = pd.Series(list(ids), dtype=object)
     dup = s[s.duplicated()].unique().tolist()
     if dup:
