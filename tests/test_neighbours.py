@@ -132,3 +132,65 @@ def test_point_spacing_and_features():
     line = np.column_stack([np.arange(100.0), np.zeros(100), np.zeros(100)])
     lin = pca_features(local_pca(line, k=5).eigenvalues)["linearity"]
     np.testing.assert_allclose(lin, 1.0)
+
+
+def _reference_pca(xyz: np.ndarray, k: int):
+    """Exact k-NN PCA from scipy's cKDTree and numpy's eigh (the reference)."""
+    from scipy.spatial import cKDTree
+
+    dist, idx = cKDTree(xyz).query(xyz, k=k)
+    nb = xyz[idx] - xyz[idx].mean(axis=1, keepdims=True)
+    w, v = np.linalg.eigh(np.einsum("nki,nkj->nij", nb, nb) / k)
+    return dist, w, v
+
+
+def _clouds(rng: np.random.Generator) -> dict[str, np.ndarray]:
+    from pyheracles.synthetic.truss import TrussParams, make_truss_roof
+
+    n = 6000
+    gap = rng.normal(scale=0.02, size=(n, 3))
+    gap[: n // 2] += [50.0, 0.0, 0.0]  # two clusters 50 m apart
+    gap[::500] += rng.uniform(-20, 20, size=(n // 500, 3))  # isolated points
+    return {
+        "uniform": rng.random((n, 3)),
+        "slab": rng.random((n, 3)) * [10.0, 10.0, 0.002],
+        "line": np.column_stack([rng.random(n) * 100.0, 1e-4 * rng.random((n, 2))]),
+        "clusters_and_outliers": gap + 1000.0,
+        "scan": make_truss_roof(TrussParams(n_points=20_000, n_trusses=2), rng=3).xyz,
+    }
+
+
+@pytest.mark.parametrize("k", [3, 16])
+def test_octree_search_equals_exact_knn_pca(k):
+    rng = np.random.default_rng(7)
+    for name, xyz in _clouds(rng).items():
+        _, w, v = _reference_pca(xyz, k)
+        pca = local_pca(xyz, k=k)
+        # the exact k-NN set (no ties in these clouds): same eigenvalues
+        scale = w[:, 2:].clip(1e-300)
+        err = np.abs(pca.eigenvalues - np.maximum(w, 0)) / scale
+        assert err.max() < 1e-9, name
+        curv = w[:, 0] / w.sum(axis=1)
+        np.testing.assert_allclose(pca.curvature, curv, atol=1e-9, err_msg=name)
+        # normals equal up to sign where the smallest eigenvalue is well separated
+        sep = (w[:, 1] - w[:, 0]) > 1e-6 * w[:, 2]
+        cos = np.abs(np.sum(pca.normals * v[:, :, 0], axis=1))
+        assert np.all(cos[sep] > 1 - 1e-9), name
+
+
+def test_octree_search_handles_duplicates_small_clouds_and_a_given_tree():
+    rng = np.random.default_rng(8)
+    base = rng.random((300, 3)) * [1.0, 1.0, 0.01]
+    xyz = np.vstack([base, base, base[:50]])  # every point twice, some three times
+    _, w, _ = _reference_pca(xyz, 12)
+    pca = local_pca(xyz, k=12, tree=build_tree(xyz))
+    np.testing.assert_allclose(pca.curvature, w[:, 0] / w.sum(axis=1), atol=1e-9)
+    # fewer points than k: every point uses all of them
+    few = rng.random((5, 3))
+    n5, c5 = estimate_normals(few, k=16)
+    centred = few - few.mean(axis=0)
+    w5, v5 = np.linalg.eigh(centred.T @ centred / 5)
+    np.testing.assert_allclose(c5, w5[0] / w5.sum(), atol=1e-12)
+    np.testing.assert_allclose(np.abs(n5 @ v5[:, 0]), 1.0, atol=1e-9)
+    with pytest.raises(InputError, match="KD-tree holds"):
+        local_pca(xyz, k=12, tree=build_tree(xyz[:10]))
