@@ -108,8 +108,8 @@ class FreeNetworkResult:
     T_world_other: NDArray[np.float64]
     tie: SimilarityResult  # other -> base
     georef: SimilarityResult  # base (+ other's control, moved into base) -> world
-    # (the moved points are weighted with the tie transform's propagated covariance;
-    # their correlation is neglected - the block adjustment is the rigorous solution)
+    # (the moved points are weighted with the tie transform's propagated covariance,
+    # their mutual correlation left out: see the notes of free_network)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -142,6 +142,21 @@ def free_network(
         Tie points (same ids) in the two clouds.
     control
         Control points (world); all control points measured in either cloud are used.
+
+    Notes
+    -----
+    Weights of the block step: a point of ``other`` moved into the base frame gets the
+    per-coordinate variance ``(s sigma)^2 + diag(J C_tie J^T)`` (its measurement, scaled,
+    plus the tie transform's parameter covariance propagated to that point).  The
+    correlation the shared tie error induces between the moved points is left out on
+    purpose: with the full covariance (generalised least squares) the block transform
+    becomes the best estimate of the *base* cloud's pose and ``other`` then inherits
+    the whole tie error, whereas the diagonal weights let the other cloud's control
+    points absorb part of it.  On the generated church (Monte Carlo, 300 paired runs,
+    seed 0 geometry) the expected 3D check point RMS is 6.7 mm with the diagonal weights
+    and 6.8 mm with the full covariance (difference of the mean squares
+    2.3 +/- 0.1 mm^2).  The rigorous joint solution is :func:`block_adjustment` (5.8 mm
+    there).
     """
     tp = tie_params or SimilarityParams()
     gp = georef_params or SimilarityParams()
