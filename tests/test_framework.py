@@ -136,6 +136,54 @@ def test_cuboid_from_two_faces_only():
     assert cub.length == pytest.approx(length, abs=0.05)
 
 
+def test_cuboid_side_without_facet_is_located_by_its_few_points():
+    """A side seen by too few points for a facet: its points fix it, not the scan
+    lines of the adjacent faces (whose last line can be a line spacing inside)."""
+    rng = np.random.default_rng(5)
+    length, w, h = 3.0, 0.14, 0.2
+    lines_z = np.arange(-h / 2 + 0.012, h / 2, 0.008)  # scan lines across the side faces
+    xs = rng.uniform(0, length, size=(2, len(lines_z), 300))
+    sides = [
+        np.column_stack([xs[i].ravel(), np.full(xs[i].size, y),
+                         np.repeat(lines_z, 300)])
+        for i, y in enumerate((-w / 2, w / 2))
+    ]  # fmt: skip
+    top = np.column_stack(
+        [rng.uniform(0, length, 4000), rng.uniform(-w / 2, w / 2, 4000), np.full(4000, h / 2)]
+    )
+    xyz = np.vstack(sides + [top])
+    xyz += rng.normal(scale=0.002, size=xyz.shape)
+    n1, n2 = len(sides[0]), len(sides[1])
+    ax = np.array([1.0, 0, 0])
+    facets = [
+        StraightFacet(np.arange(n1), np.array([0, -1.0, 0]), ax, xyz[:n1].mean(0), h, length,
+                      0.002, 1),
+        StraightFacet(np.arange(n1, n1 + n2), np.array([0, 1.0, 0]), ax,
+                      xyz[n1:n1 + n2].mean(0), h, length, 0.002, 2),
+        StraightFacet(np.arange(n1 + n2, len(xyz)), np.array([0, 0, 1.0]), ax,
+                      xyz[n1 + n2:].mean(0), w, length, 0.002, 3),
+    ]  # fmt: skip
+    bottom = np.column_stack(
+        [rng.uniform(0, length, 40), rng.uniform(-w / 2, w / 2, 40), np.full(40, -h / 2)]
+    ) + rng.normal(scale=0.002, size=(40, 3))
+    # a crossing beam's vertical face below the bottom fills the search window evenly
+    crossing = np.column_stack(
+        [
+            np.full(200, 1.5),
+            rng.uniform(-w / 2, w / 2, 200),
+            rng.uniform(-h / 2 - 0.04, -h / 2, 200),
+        ]
+    )
+    without = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=np.empty((0, 3)))
+    with_face = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=bottom)
+    with_crossing = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=crossing)
+    dims = {"plain": without, "face": with_face, "crossing": with_crossing}
+    heights = {k: c.height if abs(c.axes[2, 2]) > 0.9 else c.width for k, c in dims.items()}
+    assert abs(heights["plain"] - h) > 0.006  # the last scan line is 1.2 cm inside
+    assert heights["face"] == pytest.approx(h, abs=0.003)
+    assert heights["crossing"] == pytest.approx(heights["plain"], abs=0.001)
+
+
 def _single_beam_scan(rng):
     beam = Beam("one", np.array([0.0, 0.0, 3.0]), np.array([1.0, 0, 0]),
                 np.array([0, 0, 1.0]), 4.0, 0.16, 0.2)  # fmt: skip

@@ -755,6 +755,55 @@ def _face_points(
     return np.vstack([own, cand[keep]])
 
 
+#: Fewest points on an unfaceted side of a beam that locate that side.
+_SPARSE_FACE_MIN_POINTS = 15
+
+
+def _sparse_face(
+    free: NDArray[np.float64],
+    axis: NDArray[np.float64],
+    d: NDArray[np.float64],
+    other: NDArray[np.float64],
+    band: NDArray[np.float64],
+    t_range: tuple[float, float],
+    edge: float,
+    sign: float,
+    bin_m: float,
+) -> float:
+    """Offset along ``d`` of a beam side seen by too few points for a facet.
+
+    Candidates are the ``free`` points (in no facet) strictly between the
+    planes of the two adjacent faces (offsets ``band`` along ``other``), within
+    the beam's length, and within a few centimetres outside to one centimetre
+    inside the ``edge`` estimated from the adjacent faces (``sign`` -1 for the
+    low side, +1 for the high side).  Their median offset is returned when they
+    are enough and lie on one plane across ``d`` (interquartile range below
+    ``bin_m``, at least 6 mm); otherwise ``edge`` is.
+    """
+    if len(free) == 0 or np.ptp(band) < 0.04:
+        return edge
+    margin = max(2.0 * bin_m, 0.01)
+    b_lo, b_hi = float(band.min()) + margin, float(band.max()) - margin
+    reach = max(6.0 * bin_m, 0.03)
+    a = free @ d
+    sel = (sign * (a - edge) <= reach) & (sign * (a - edge) >= -max(2.0 * bin_m, 0.01))
+    if not sel.any():
+        return edge
+    cand = free[sel]
+    o = cand @ other
+    t = cand @ axis
+    inside = (o >= b_lo) & (o <= b_hi) & (t >= t_range[0]) & (t <= t_range[1])
+    vals = a[sel][inside]
+    if len(vals) < _SPARSE_FACE_MIN_POINTS:
+        return edge
+    # one plane across d: a thin layer (noise), not points of a crossing
+    # beam's faces, which fill the search window evenly
+    q1, q3 = np.quantile(vals, [0.25, 0.75])
+    if q3 - q1 > max(bin_m, 0.006):
+        return edge
+    return float(np.median(vals))
+
+
 def fit_beam_cuboid(
     xyz: NDArray[np.float64],
     facets: list[StraightFacet],
@@ -827,6 +876,18 @@ def fit_beam_cuboid(
         hi_faces = offsets[offsets >= mid] if len(offsets) else offsets
         b_lo = float(np.median(lo_faces)) if len(lo_faces) else e_lo
         b_hi = float(np.median(hi_faces)) if len(hi_faces) else e_hi
+        if free is not None and across and not (len(lo_faces) and len(hi_faces)):
+            # A side whose face gave no facet (seen by too few points, or at a
+            # grazing angle) is located by the edge of the adjacent faces only
+            # to within a scan-line spacing; the face's own points, if any were
+            # scanned, fix it (they lie between the adjacent faces' planes).
+            band = np.array([np.median(xyz[f.index] @ other) for f in across])
+            t_all = pts @ axis
+            t_rng = (float(np.quantile(t_all, 0.005)), float(np.quantile(t_all, 0.995)))
+            if not len(lo_faces):
+                b_lo = _sparse_face(free, axis, d, other, band, t_rng, e_lo, -1.0, bin_m)
+            if not len(hi_faces):
+                b_hi = _sparse_face(free, axis, d, other, band, t_rng, e_hi, 1.0, bin_m)
         bounds.append((b_lo, b_hi))
     t = pts @ axis
     t_lo, t_hi = np.quantile(t, [0.005, 0.995])
