@@ -6,7 +6,13 @@ the integration strategies of the thesis (Murtiyoso 2020, ch. 3).  Submodules lo
 lazily only what they use (matplotlib only for the residual map).
 """
 
-from pyheracles.registration.checkpoints import CheckPointReport, check_points, plot_residual_map
+from pyheracles.registration.checkpoints import (
+    CheckPointReport,
+    ResidualPropagation,
+    check_points,
+    plot_residual_map,
+    propagate_residuals,
+)
 from pyheracles.registration.icp import ICPParams, ICPResult, icp
 from pyheracles.registration.points import (
     PointList,
@@ -55,6 +61,7 @@ __all__ = [
     "ICPParams",
     "ICPResult",
     "PointList",
+    "ResidualPropagation",
     "SimilarityParams",
     "SimilarityResult",
     "TiePointParams",
@@ -74,6 +81,7 @@ __all__ = [
     "measure_spheres",
     "pair_points",
     "plot_residual_map",
+    "propagate_residuals",
     "read_point_groups",
     "read_points",
     "read_transform_json",
