@@ -143,3 +143,19 @@ def test_demo_command(tmp_path: Path) -> None:
     assert (out / "overview.png").stat().st_size > 10_000
     assert (out / "result" / "evaluation.csv").is_file()
     assert (out / "scene" / "cloud.laz").is_file()
+
+
+def test_every_output_option_has_the_same_names() -> None:
+    """One spelling works everywhere: -o, --out and --outdir name the output folder."""
+    import typer.main
+
+    from pyheracles.cli import app
+
+    group = typer.main.get_command(app)
+    seen = 0
+    for name, command in group.commands.items():  # type: ignore[attr-defined]
+        for param in command.params:
+            if "-o" in getattr(param, "opts", []):
+                assert {"--out", "--outdir"} <= set(param.opts), (name, param.opts)
+                seen += 1
+    assert seen >= 10

@@ -16,7 +16,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command("demo")
     def demo_cmd(
-        out: Path = typer.Option(Path("demo_out"), "-o", "--out", "--outdir", help="Output folder."),
+        out: Path = typer.Option(
+            Path("demo_out"), "-o", "--out", "--outdir", help="Output folder."
+        ),
         points: int = typer.Option(400_000, help="Points in the generated complex."),
         seed: int = typer.Option(0, help="Seed of the generated scene."),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),

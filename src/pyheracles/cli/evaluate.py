@@ -145,7 +145,8 @@ def register(app: typer.Typer) -> None:
             float, typer.Option(help="Distance to a polygon still inside it, metres.")
         ] = 1.0,
         out: Annotated[
-            Path | None, typer.Option("--out", "-o", "--outdir", help="Output folder (default: RESULT's).")
+            Path | None,
+            typer.Option("--out", "-o", "--outdir", help="Output folder (default: RESULT's)."),
         ] = None,
         rows: Annotated[int, typer.Option(help="Object rows shown (all are written).")] = 40,
     ) -> None:

@@ -70,7 +70,7 @@ def register(app: typer.Typer) -> None:
     def register_cmd(
         source: Path = typer.Argument(..., help="Cloud to move (LAS/LAZ/PLY/E57)."),
         target: Path = typer.Argument(..., help="Reference cloud."),
-        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         tiepoints: list[Path] = typer.Option(
             None,
             "--tiepoints",
@@ -186,7 +186,7 @@ def register(app: typer.Typer) -> None:
             help="Points measured in each cloud (CSV id,X,Y,Z, cloud frame), one per cloud "
             "in the same order. Ids shared by two clouds are tie points.",
         ),
-        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         strategy: str = typer.Option(
             "independent", help="independent, free (first cloud is the base) or block."
         ),
@@ -302,7 +302,9 @@ def register(app: typer.Typer) -> None:
         sphere_radius: float = typer.Option(
             None, help="Measure sphere targets of this radius near the reference positions, m."
         ),
-        out: Path = typer.Option(None, "-o", "--out", help="Output folder (JSON, CSV, PNG)."),
+        out: Path = typer.Option(
+            None, "-o", "--out", "--outdir", help="Output folder (JSON, CSV, PNG)."
+        ),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
     ) -> None:
         """Residuals and RMS of independent check points; residual map as PNG.
