@@ -512,6 +512,7 @@ def knn_covariance_pca(
         bz = np.empty(cap)
         bidx = np.empty(cap, np.int64)
         dbuf = np.empty(cap)
+        cidx = np.empty(cap + 1, np.int64)
         w_first = chunk * n_cells // n_chunks
         w_end = (chunk + 1) * n_cells // n_chunks
         for w in range(w_first, w_end):
@@ -533,11 +534,12 @@ def knn_covariance_pca(
                 bz = np.empty(cap)
                 bidx = np.empty(cap, np.int64)
                 dbuf = np.empty(cap)
+                cidx = np.empty(cap + 1, np.int64)
             _gather(pts, ranges, n_r, bx, by, bz, bidx)
             promoted[chunk] += _work_cell(
                 pts, keys, order, starts, fine_max, lo, h0, k, directions,
                 vals, vmin, vmax, w, lev0, cx0, cy0, cz0, cmax, n_cand, bx, by, bz, bidx,
-                dbuf, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
+                dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
             )  # fmt: skip
     return promoted.sum()
 
@@ -560,16 +562,92 @@ def _gather(pts, ranges, n_r, bx, by, bz, bidx):
     return m
 
 
+@njit(cache=True, inline="always")
+def _select(dbuf, bidx, cidx, n_cand, k, bd, bi, limit):
+    """The k smallest of ``dbuf[:n_cand]`` not above ``limit``, sorted in ``bd, bi``."""
+    m = 0
+    for j in range(n_cand):  # branch-free compaction of the candidates under the limit
+        cidx[m] = j
+        m += dbuf[j] <= limit
+    filled = 0
+    for t in range(m):
+        j = cidx[t]
+        d = dbuf[j]
+        if filled < k or d < bd[k - 1]:
+            filled = _insert(bd, bi, filled, k, d, bidx[j])
+    return filled
+
+
+@njit(cache=True, inline="always")
+def _count_le(dbuf, n, t):
+    c = 0
+    for j in range(n):
+        c += dbuf[j] <= t
+    return c
+
+
+@njit(cache=True)
+def _select_set(dbuf, bidx, cidx, n_cand, k, bd, bi, guess, bound):
+    """The k smallest of ``dbuf[:n_cand]`` not above ``bound``, as a set.
+
+    Returns k with ``bi[:k]`` the chosen indices and ``bd[k - 1]`` the largest
+    chosen distance (the rest of ``bd`` is scratch), or a number below k when
+    fewer than k candidates are within ``bound``.
+    """
+    slack = 8
+    hi_t = min(guess, bound)
+    c_hi = _count_le(dbuf, n_cand, hi_t)
+    if c_hi < k:
+        if hi_t >= bound:
+            return c_hi
+        hi_t = bound
+        c_hi = _count_le(dbuf, n_cand, hi_t)
+        if c_hi < k:
+            return c_hi
+    lo_t = 0.0
+    it = 0
+    while c_hi > k + slack and it < 12:
+        mid = 0.5 * (lo_t + hi_t)
+        c = _count_le(dbuf, n_cand, mid)
+        if c >= k:
+            hi_t, c_hi = mid, c
+        else:
+            lo_t = mid
+        it += 1
+    m = 0
+    for j in range(n_cand):  # branch-free compaction
+        cidx[m] = j
+        m += dbuf[j] <= hi_t
+    # drop the m - k largest (ties at the k-th distance: any of them)
+    while m > k:
+        best = 0
+        for t in range(1, m):
+            if dbuf[cidx[t]] > dbuf[cidx[best]]:
+                best = t
+        m -= 1
+        cidx[best] = cidx[m]
+    kth = 0.0
+    for t in range(k):
+        j = cidx[t]
+        d = dbuf[j]
+        bd[t] = d
+        bi[t] = bidx[j]
+        kth = max(kth, d)
+    bd[k - 1] = kth  # only the k-th distance is used after a set selection
+    return k
+
+
 @njit(cache=True)
 def _work_cell(
     pts, keys, order, starts, fine_max, lo, h0, k, directions,
     vals, vmin, vmax, w, lev0, cx0, cy0, cz0, cmax, n_cand, bx, by, bz, bidx,
-    dbuf, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
+    dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
 ):  # fmt: skip
     """All points of work cell ``w`` (see :func:`knn_covariance_pca`); the
     candidates of its 3 x 3 x 3 block are in the buffers ``bx, by, bz, bidx``."""
     promoted = 0
     h_w = h0 * (1 << lev0)
+    guess = np.inf  # k-th squared distance expected from the previous point
     for p in range(starts[w], starts[w + 1]):
         px, py, pz = pts[p, 0], pts[p, 1], pts[p, 2]
         for j in range(n_cand):  # vectorised by the compiler
@@ -577,13 +655,18 @@ def _work_cell(
             ey = by[j] - py
             ez = bz[j] - pz
             dbuf[j] = ex * ex + ey * ey + ez * ez
-        filled = 0
-        for j in range(n_cand):
-            d = dbuf[j]
-            if filled < k or d < bd[k - 1]:
-                filled = _insert(bd, bi, filled, k, d, bidx[j])
-        lev = lev0
+        # The k nearest as a set (the covariance needs no order): a distance
+        # threshold is bracketed by branch-free counts, starting from the
+        # previous point's k-th distance (a neighbour in the same cell), then
+        # the few extra candidates under it are dropped.  Beyond the block's
+        # exactness bound nothing can be accepted; if fewer than k candidates
+        # are within it, all of them are ranked and the search goes up a level.
         bound = _bound2(pts, p, lo, h_w, cx0, cy0, cz0, cmax)
+        filled = _select_set(dbuf, bidx, cidx, n_cand, k, bd, bi, guess, bound)
+        if filled < k:
+            filled = _select(dbuf, bidx, cidx, n_cand, k, bd, bi, np.inf)
+        guess = 2.25 * bd[k - 1] if filled == k else np.inf
+        lev = lev0
         while not (filled == k and bd[k - 1] <= bound):
             # go up to the level whose cells are at least the k-th distance
             lev += 1
