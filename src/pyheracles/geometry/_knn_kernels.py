@@ -99,6 +99,39 @@ def morton_keys(
 
 
 @njit(cache=True)
+def bounding_box(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper corners of the points (one pass; numpy's axis-0 min and
+    max on an ``(N, 3)`` array take two strided passes each)."""
+    lo = xyz[0].copy()
+    hi = xyz[0].copy()
+    for i in range(1, xyz.shape[0]):
+        for a in range(3):
+            v = xyz[i, a]
+            if v < lo[a]:
+                lo[a] = v
+            if v > hi[a]:
+                hi[a] = v
+    return lo, hi
+
+
+@njit(cache=True, parallel=True)
+def gather_sorted(
+    xyz: NDArray[np.float64], keys: NDArray[np.int64], order: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """``xyz[order]`` and ``keys[order]``, in parallel."""
+    n = order.shape[0]
+    pts = np.empty((n, 3))
+    skeys = np.empty(n, np.int64)
+    for i in prange(n):
+        o = order[i]
+        pts[i, 0] = xyz[o, 0]
+        pts[i, 1] = xyz[o, 1]
+        pts[i, 2] = xyz[o, 2]
+        skeys[i] = keys[o]
+    return pts, skeys
+
+
+@njit(cache=True)
 def radix_argsort(keys: NDArray[np.int64], n_bits: int) -> NDArray[np.int64]:
     """Stable LSD radix argsort of non-negative keys below ``2**n_bits``.
 

@@ -345,16 +345,14 @@ def octree_pca(
     n = len(arr)
     if not 1 <= k <= n:
         raise InputError(f"k must be between 1 and the number of points ({n}), got {k}")
-    lo = arr.min(axis=0)
-    hi = arr.max(axis=0)
+    lo, hi = kern.bounding_box(arr)
     side = float((hi - lo).max()) or 1.0
     h0 = side * (1.0 + 1e-9) / float(1 << kern.BITS)
     inv_h0 = 1.0 / h0
     fine_max = np.minimum(((hi - lo) * inv_h0).astype(np.int64), (1 << kern.BITS) - 1)
     keys = kern.morton_keys(arr, lo, inv_h0)
     order = kern.radix_argsort(keys, 3 * kern.BITS)
-    skeys = keys[order]
-    spts = arr[order]
+    spts, skeys = kern.gather_sorted(arr, keys, order)
     starts, levels, codes = kern.work_cells(skeys, max(int(max_leaf), 1))
     vals = np.empty((n, 3))
     vmin = np.empty((n, 3))
@@ -426,7 +424,10 @@ def local_pca(
         raise InputError(f"local PCA needs at least 3 points, got {n}")
     if k < 3 and indices is None:
         raise InputError(f"k must be at least 3 for a covariance, got {k}")
-    extent2 = float(np.sum((arr.max(axis=0) - arr.min(axis=0)) ** 2)) or 1.0
+    from pyheracles.geometry._knn_kernels import bounding_box
+
+    lo, hi = bounding_box(arr)
+    extent2 = float(np.sum((hi - lo) ** 2)) or 1.0
     if indices is not None:
         vals = np.empty((n, 3))
         normals = np.empty((n, 3))
@@ -447,7 +448,7 @@ def local_pca(
         # The compiled octree search is exact and 3-4x faster than querying even
         # a shared tree (see _knn_kernels), so a given tree is only checked.
         vals, normals, dirs = octree_pca(arr, int(min(k, n)), directions=directions)
-    total = vals.sum(axis=1)
+    total = vals[:, 0] + vals[:, 1] + vals[:, 2]
     degenerate = total <= _DEGENERATE_TRACE * extent2
     curvature = np.where(degenerate, 1.0 / 3.0, vals[:, 0] / np.where(degenerate, 1.0, total))
     normals[degenerate] = 0.0
