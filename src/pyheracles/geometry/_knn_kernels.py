@@ -26,6 +26,9 @@ kernel below does, in one pass, with a few arrays of ``N`` numbers:
    current ``k``-th distance, which then always satisfies the bound (the root
    cell holds everything), so isolated points and big gaps are handled
    without a fallback.
+   The ``k`` nearest are selected as a set (the covariance needs no order):
+   a distance threshold is bracketed by branch-free counts over the
+   candidates, starting from the previous point's ``k``-th distance.
 4. The covariance of the ``k`` neighbours is accumulated about their mean
    (two passes, no cancellation) and decomposed in closed form (trigonometric
    solution of the characteristic cubic, eigenvectors from cross products of

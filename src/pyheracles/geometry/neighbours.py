@@ -1,20 +1,25 @@
 """Shared KD-tree neighbourhoods, normals, curvature and local PCA features.
 
 Every step that looks at local shape (region growing, beams, walls, supports)
-uses the same three ingredients: a :class:`scipy.spatial.cKDTree` built once,
-the ``k`` nearest neighbours of every point, and the eigen-decomposition of the
-neighbourhood covariance.  In M_HERACLES this was the bottleneck (MATLAB
-``pcnormals`` took more than half of 222 s for 100 k points, Murtiyoso 2020,
-ch. 6.3); here it is vectorised end to end:
+uses the same ingredients: the ``k`` nearest neighbours of every point and the
+eigen-decomposition of the neighbourhood covariance.  In M_HERACLES this was
+the bottleneck (MATLAB ``pcnormals`` took more than half of 222 s for 100 k
+points, Murtiyoso 2020, ch. 6.3).  Here:
 
-1. the tree is queried with ``workers=-1`` (all cores) in row blocks;
-2. the neighbourhood moments (sum of p and of p p^T) are gathered with one
-   sparse matrix product per block, which avoids materialising the
-   ``(N, k, 3)`` neighbour array;
-3. the 3x3 symmetric eigenproblems are solved in closed form (trigonometric
-   solution of the characteristic cubic, Smith 1961), with the normal taken as
-   the best-conditioned cross product of two rows of ``C - lambda_min I``; the
-   few ill-conditioned neighbourhoods fall back to :func:`numpy.linalg.eigh`.
+- :func:`local_pca` and :func:`estimate_normals` run a compiled exact k-NN
+  search on an implicit octree that accumulates each neighbourhood's
+  covariance directly, without an ``(N, k)`` neighbour table
+  (:func:`octree_pca`, :mod:`pyheracles.geometry._knn_kernels`: about 2x
+  Open3D's ``estimate_normals`` on a 1 M-point scan on 2 cores, where a
+  ``cKDTree`` query alone costs as much as Open3D);
+- :func:`knn` (the neighbour table, for region growing) queries a
+  :class:`scipy.spatial.cKDTree` built once (:func:`build_tree`) with
+  ``workers=-1``; :func:`local_pca` with such precomputed ``indices`` gathers
+  the moments with one sparse matrix product per block;
+- the 3x3 symmetric eigenproblems are solved in closed form (trigonometric
+  solution of the characteristic cubic, Smith 1961), with the normal taken as
+  the best-conditioned cross product of two rows of ``C - lambda_min I``; the
+  few ill-conditioned neighbourhoods fall back to an iterative solver.
 
 Hand-written rather than Open3D because pyheracles keeps Open3D optional
 (it is a benchmark extra) and needs the curvature and all three eigenvalues,
