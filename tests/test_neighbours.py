@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pyheracles.errors import InputError
+from pyheracles.geometry import neighbours
 from pyheracles.geometry.neighbours import (
     build_tree,
     estimate_normals,
@@ -161,7 +162,8 @@ def _clouds(rng: np.random.Generator) -> dict[str, np.ndarray]:
 
 
 @pytest.mark.parametrize("k", [3, 16])
-def test_octree_search_equals_exact_knn_pca(k):
+def test_octree_search_equals_exact_knn_pca(k, monkeypatch):
+    monkeypatch.setattr(neighbours, "_COMPILED_FROM", 0)  # the compiled search for every size
     rng = np.random.default_rng(7)
     for name, xyz in _clouds(rng).items():
         _, w, v = _reference_pca(xyz, k)
@@ -178,7 +180,9 @@ def test_octree_search_equals_exact_knn_pca(k):
         assert np.all(cos[sep] > 1 - 1e-9), name
 
 
-def test_octree_search_handles_duplicates_small_clouds_and_a_given_tree():
+@pytest.mark.parametrize("compiled_from", [0, 10**9])
+def test_octree_search_handles_duplicates_small_clouds_and_a_given_tree(compiled_from, monkeypatch):
+    monkeypatch.setattr(neighbours, "_COMPILED_FROM", compiled_from)  # both searches
     rng = np.random.default_rng(8)
     base = rng.random((300, 3)) * [1.0, 1.0, 0.01]
     xyz = np.vstack([base, base, base[:50]])  # every point twice, some three times

@@ -60,6 +60,10 @@ _BLOCK_ROWS = 1 << 19
 #: A neighbourhood whose covariance trace is below this fraction of the cloud's
 #: squared extent is degenerate (all neighbours at one location: duplicates).
 _DEGENERATE_TRACE = 1e-20
+#: From this many points on, :func:`local_pca` uses the compiled octree search.
+#: Below it scipy's tree is about as fast and needs no compiled kernel, whose
+#: first compilation on a new machine takes about 20 s (then it is cached).
+_COMPILED_FROM = 100_000
 
 
 def _as_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
@@ -429,9 +433,14 @@ def local_pca(
         raise InputError(f"local PCA needs at least 3 points, got {n}")
     if k < 3 and indices is None:
         raise InputError(f"k must be at least 3 for a covariance, got {k}")
-    from pyheracles.geometry._knn_kernels import bounding_box
+    if indices is None and n < _COMPILED_FROM:
+        _, indices = knn(arr, int(min(k, n)), tree)
+    if n < _COMPILED_FROM:
+        lo, hi = arr.min(axis=0), arr.max(axis=0)
+    else:
+        from pyheracles.geometry._knn_kernels import bounding_box
 
-    lo, hi = bounding_box(arr)
+        lo, hi = bounding_box(arr)
     extent2 = float(np.sum((hi - lo) ** 2)) or 1.0
     if indices is not None:
         vals = np.empty((n, 3))
