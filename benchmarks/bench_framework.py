@@ -1,6 +1,9 @@
 """Beams of timber frameworks: accuracy, speed, normals vs Open3D, bad input.
 
-Run: ``python benchmarks/bench_framework.py [--quick]`` (one JSON line per measurement).
+Run: ``python benchmarks/bench_framework.py [--quick]`` (one JSON line per measurement), or
+``python benchmarks/bench_framework.py --seeds`` for the robustness sweep alone (the three
+roof configurations over generator seeds 0-9, one JSON line per roof and a summary per
+configuration).
 
 Targets (issue 4):
 
@@ -34,6 +37,14 @@ from pyheracles.synthetic.truss import Beam, TrussParams, make_truss_roof, scan_
 
 REPEATS = 3
 QUICK = "--quick" in sys.argv
+SEEDS = "--seeds" in sys.argv
+
+#: The roof configurations of the accuracy benchmark: name, generator parameters, seed.
+ROOF_CONFIGS = [
+    ("truss2_3scan_200k", TrussParams(n_trusses=2, n_scanners=3, n_points=200_000), 0),
+    ("truss2_2scan_150k", TrussParams(n_trusses=2, n_scanners=2, n_points=150_000), 1),
+    ("truss3_3scan_300k", TrussParams(n_trusses=3, n_scanners=3, n_points=300_000), 2),
+]
 
 
 def _load() -> float:
@@ -71,31 +82,34 @@ def beam_scores(roof, result) -> dict[str, float]:
         "max_axis_err_deg": float(np.max(angs)) if angs else float("inf"),
         "max_width_err_m": float(np.max(dws)) if dws else float("inf"),
         "max_height_err_m": float(np.max(dhs)) if dhs else float("inf"),
+        "f1s": f1s,
+        "dim_errs": list(np.maximum(dws, dhs)) if dws else [],
     }
 
 
+def targets_met(s: dict[str, float]) -> bool:
+    """Every accuracy target of issue 4 on one roof (scores from :func:`beam_scores`)."""
+    return bool(
+        s["n_found"] == s["n_true"]
+        and s["one_to_one"]
+        and s["median_f1"] >= 0.95
+        and s["max_axis_err_deg"] < 1.0
+        and s["max_width_err_m"] < 0.01
+        and s["max_height_err_m"] < 0.01
+    )
+
+
 def accuracy() -> None:
-    configs = [
-        ("truss2_3scan_200k", TrussParams(n_trusses=2, n_scanners=3, n_points=200_000), 0),
-        ("truss2_2scan_150k", TrussParams(n_trusses=2, n_scanners=2, n_points=150_000), 1),
-        ("truss3_3scan_300k", TrussParams(n_trusses=3, n_scanners=3, n_points=300_000), 2),
-    ]
-    if QUICK:
-        configs = configs[:1]
+    configs = ROOF_CONFIGS[:1] if QUICK else ROOF_CONFIGS
     for name, params, seed in configs:
         roof = make_truss_roof(params, rng=seed)
         t0 = time.perf_counter()
         res = segment_beams(roof.xyz)
         dt = time.perf_counter() - t0
         s = beam_scores(roof, res)
-        ok = (
-            s["n_found"] == s["n_true"]
-            and s["one_to_one"]
-            and s["median_f1"] >= 0.95
-            and s["max_axis_err_deg"] < 1.0
-            and s["max_width_err_m"] < 0.01
-            and s["max_height_err_m"] < 0.01
-        )
+        ok = targets_met(s)
+        s.pop("f1s")
+        s.pop("dim_errs")
         emit(
             dataset=f"synthetic/{name}",
             metric="beams_accuracy",
@@ -108,6 +122,54 @@ def accuracy() -> None:
             target="count exact, median F1 >= 0.95, width/height < 1 cm, axis < 1 deg",
             reached=bool(ok),
             **s,
+        )
+
+
+def bench_seeds(seeds: range = range(10)) -> None:
+    """Robustness: the accuracy targets over generator seeds, per roof configuration.
+
+    One JSON line per (configuration, seed) with the scores and the name of the worst
+    beam (lowest F1), then one summary line per configuration: share of seeds meeting
+    every target, worst width/height/axis error, seeds with a wrong beam count.
+    """
+    for name, params, _seed in ROOF_CONFIGS:
+        rows = []
+        for seed in seeds:
+            roof = make_truss_roof(params, rng=seed)
+            t0 = time.perf_counter()
+            res = segment_beams(roof.xyz)
+            dt = time.perf_counter() - t0
+            s = beam_scores(roof, res)
+            s["reached"] = targets_met(s)
+            rows.append(s)
+            emit(
+                dataset=f"synthetic/{name}",
+                metric="beams_accuracy_seed",
+                value=s["median_f1"],
+                time_s=dt,
+                points_per_s=len(roof.xyz) / dt,
+                seed=seed,
+                worst_f1_beam=roof.beams[int(np.argmin(s.pop("f1s")))].name,
+                worst_size_beam=roof.beams[int(np.argmax(s.pop("dim_errs")))].name,
+                **s,
+            )
+        ok = [r["reached"] for r in rows]
+        emit(
+            dataset=f"synthetic/{name}",
+            metric="beams_accuracy_seeds_summary",
+            value=float(np.mean(ok)),
+            seeds=[int(x) for x in seeds],
+            n_reached=int(np.sum(ok)),
+            failed_seeds=[int(x) for x, r in zip(seeds, ok, strict=True) if not r],
+            count_mismatch_seeds=[
+                int(x) for x, r in zip(seeds, rows, strict=True) if r["n_found"] != r["n_true"]
+            ],
+            worst_width_err_m=max(r["max_width_err_m"] for r in rows),
+            worst_height_err_m=max(r["max_height_err_m"] for r in rows),
+            worst_axis_err_deg=max(r["max_axis_err_deg"] for r in rows),
+            worst_min_f1=min(r["min_f1"] for r in rows),
+            worst_median_f1=min(r["median_f1"] for r in rows),
+            target="every target met on every seed",
         )
 
 
@@ -270,6 +332,9 @@ def bad_input() -> None:
 
 if __name__ == "__main__":
     emit(dataset="machine", metric="load_avg_1min", value=_load(), cpus=os.cpu_count())
+    if SEEDS:
+        bench_seeds()
+        sys.exit(0)
     accuracy()
     speed()
     normals_vs_open3d()

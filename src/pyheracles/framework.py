@@ -757,6 +757,8 @@ def _face_points(
 
 #: Fewest points on an unfaceted side of a beam that locate that side.
 _SPARSE_FACE_MIN_POINTS = 15
+#: Smallest share of the beam's length covered by those points (10 cm bins).
+_SPARSE_FACE_MIN_COVER = 0.2
 
 
 def _sparse_face(
@@ -777,7 +779,9 @@ def _sparse_face(
     the beam's length, and within a few centimetres outside to one centimetre
     inside the ``edge`` estimated from the adjacent faces (``sign`` -1 for the
     low side, +1 for the high side).  Their median offset is returned when they
-    are enough and lie on one plane across ``d`` (interquartile range below
+    are enough, spread along the beam (10 cm bins holding them cover at least
+    ``_SPARSE_FACE_MIN_COVER`` of its length: the ends of beams resting on this
+    one are local) and lie on one plane across ``d`` (interquartile range below
     ``bin_m``, at least 6 mm); otherwise ``edge`` is.
     """
     if len(free) == 0 or np.ptp(band) < 0.04:
@@ -795,6 +799,13 @@ def _sparse_face(
     inside = (o >= b_lo) & (o <= b_hi) & (t >= t_range[0]) & (t <= t_range[1])
     vals = a[sel][inside]
     if len(vals) < _SPARSE_FACE_MIN_POINTS:
+        return edge
+    # a face runs along the beam: points bunched in a few spots (the ends of
+    # beams resting on this one, at a joint) are no side of it, even if their
+    # offsets agree by chance
+    step = max(0.1, 10.0 * bin_m)
+    occupied = len(np.unique(np.floor(t[inside] / step)))
+    if occupied * step < _SPARSE_FACE_MIN_COVER * (t_range[1] - t_range[0]):
         return edge
     # one plane across d: a thin layer (noise), not points of a crossing
     # beam's faces, which fill the search window evenly
@@ -908,20 +919,56 @@ def fit_beam_cuboid(
     return replace(cub, rms=float(np.sqrt(np.mean(dist**2))))
 
 
+def _section_overlap(big: BeamCuboid, small: BeamCuboid) -> tuple[float, NDArray[np.float64]]:
+    """Share of ``small``'s cross-section inside ``big``'s, and its extents in ``big``'s frame.
+
+    Both sections are taken as rectangles in the plane across ``big``'s axis
+    (the axes are nearly parallel); ``small``'s is its bounding rectangle there.
+    """
+    d = small.centre - big.centre
+    rot = np.abs(big.axes[:, 1:].T @ small.axes[:, 1:])  # (2, 2) |cos| between section axes
+    half_small = rot @ (0.5 * np.array([small.width, small.height]))
+    centre = big.axes[:, 1:].T @ d
+    half_big = 0.5 * np.array([big.width, big.height])
+    inter = np.clip(
+        np.minimum(centre + half_small, half_big) - np.maximum(centre - half_small, -half_big),
+        0.0,
+        None,
+    )
+    return float(np.prod(inter) / max(np.prod(2 * half_small), 1e-12)), 2 * half_small
+
+
 def _collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> bool:
-    """Two cuboids that are pieces of one beam cut by an X joint or a shadow."""
+    """Two cuboids that are pieces of one beam cut by an X joint or a shadow.
+
+    Parallel, separated along the axis by at most ``max_gap``, and either with
+    the same cross-section (centres within 30 % of it, sizes within 25 % or
+    2 cm), or with the smaller section inside the larger one and one of its
+    sizes equal to the larger one's: a piece seen on too few faces (a side
+    shadowed by a crossing beam) has one side located by the edge of a partly
+    seen face, so one size comes out short; the refit of the merged beam takes
+    that side from the other piece's face.
+    """
     if abs(a.axis @ b.axis) < cos_par:
         return False
+    gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
+    if gap > max_gap:
+        return False
+    same = True
     for x, y in ((a, b), (b, a)):
         d = y.centre - x.centre
         if abs(d @ x.axes[:, 1]) > 0.3 * x.width or abs(d @ x.axes[:, 2]) > 0.3 * x.height:
-            return False
+            same = False
     dims_a = np.sort([a.width, a.height])
     dims_b = np.sort([b.width, b.height])
-    if np.any(np.abs(dims_a - dims_b) > np.maximum(0.25 * np.maximum(dims_a, dims_b), 0.02)):
-        return False
-    gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
-    return gap <= max_gap
+    tol = np.maximum(0.25 * np.maximum(dims_a, dims_b), 0.02)
+    if same and not np.any(np.abs(dims_a - dims_b) > tol):
+        return True
+    big, small = (a, b) if a.width * a.height >= b.width * b.height else (b, a)
+    inside, sizes = _section_overlap(big, small)
+    big_sizes = np.array([big.width, big.height])
+    one_equal = np.any(np.abs(sizes - big_sizes) <= np.maximum(0.1 * big_sizes, 0.01))
+    return bool(inside >= 0.8 and one_equal)
 
 
 def _merge_and_absorb(
