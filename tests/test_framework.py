@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from pyheracles.errors import InputError
 from pyheracles.framework import (
+    BeamCuboid,
     BeamParams,
     StraightFacet,
+    _collinear,
     fit_beam_cuboid,
     segment_beams,
     split_facet,
@@ -174,14 +177,70 @@ def test_cuboid_side_without_facet_is_located_by_its_few_points():
             rng.uniform(-h / 2 - 0.04, -h / 2, 200),
         ]
     )
+    # the ends of three beams resting on this one: thin layers 1 cm below, in
+    # three spots along the beam (24 points on one plane, as in a truss's tie beam
+    # under its rafter feet and king post)
+    ends = np.vstack(
+        [
+            np.column_stack(
+                [
+                    rng.uniform(x, x + 0.05, 8),
+                    rng.uniform(-w / 2 + 0.02, w / 2 - 0.02, 8),
+                    np.full(8, -h / 2 - 0.01),
+                ]
+            )
+            for x in (0.1, 1.5, 2.9)
+        ]
+    ) + rng.normal(scale=0.001, size=(24, 3))
     without = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=np.empty((0, 3)))
     with_face = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=bottom)
     with_crossing = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=crossing)
-    dims = {"plain": without, "face": with_face, "crossing": with_crossing}
+    with_ends = fit_beam_cuboid(xyz, facets, bin_m=0.005, free=ends)
+    dims = {"plain": without, "face": with_face, "crossing": with_crossing, "ends": with_ends}
     heights = {k: c.height if abs(c.axes[2, 2]) > 0.9 else c.width for k, c in dims.items()}
     assert abs(heights["plain"] - h) > 0.006  # the last scan line is 1.2 cm inside
     assert heights["face"] == pytest.approx(h, abs=0.003)
     assert heights["crossing"] == pytest.approx(heights["plain"], abs=0.001)
+    assert heights["ends"] == pytest.approx(heights["plain"], abs=0.001)
+
+
+def _cuboid(centre, width, length=2.0, height=0.18):
+    axes = np.column_stack([[0.0, 0.6, 0.8], [1.0, 0, 0], [0.0, 0.8, -0.6]])
+    return BeamCuboid(np.asarray(centre, float), axes, length, width, height, 0.003, 2)
+
+
+def test_collinear_pieces_merge_when_one_side_was_not_seen():
+    """A piece whose far side was shadowed has a short width but lies inside the
+    other piece's section: one beam.  A parallel beam beside it is another."""
+    ax = np.array([0.0, 0.6, 0.8])
+    full = _cuboid([0.0, 0, 0], 0.16)
+    # shares the +x face, 7.6 cm wide instead of 16, 30 cm further along the axis
+    partial = _cuboid([0.08 - 0.038, 0, 0] + 2.3 * ax, 0.076)
+    beside = _cuboid([0.25, 0, 0] + 2.3 * ax, 0.16)
+    thin_beside = _cuboid([0.16, 0, 0] + 2.3 * ax, 0.076)
+    cos_par = np.cos(np.radians(5.0))
+    assert _collinear(full, partial, cos_par, 1.0)
+    assert _collinear(partial, full, cos_par, 1.0)
+    assert not _collinear(full, beside, cos_par, 1.0)
+    assert not _collinear(full, thin_beside, cos_par, 1.0)
+    far = replace(partial, centre=partial.centre + 1.0 * ax)
+    assert not _collinear(full, far, cos_par, 1.0)  # 1.3 m gap
+
+
+def test_strut_face_behind_post_does_not_bite_the_post():
+    """Three-truss roof, noise seed 5: a strut's face 3 cm behind the king post's
+    face (one region) once took a diagonal strip of the post's points, so the post
+    came out of 2 facets, 7.6 cm wide (F1 0.70)."""
+    roof = make_truss_roof(TrussParams(n_trusses=3, n_scanners=3, n_points=300_000), rng=5)
+    res = segment_beams(roof.xyz)
+    assert len(res.beams) == len(roof.beams)
+    best, f1 = _match(res.labels, roof.labels)
+    assert len(np.unique(best)) == len(roof.beams)
+    for j, tb in enumerate(roof.beams):
+        cub = res.beams[best[j] - 1]
+        assert f1[j] >= 0.9, tb.name
+        sizes = sorted([cub.width, cub.height])
+        assert sizes == pytest.approx(sorted([tb.width, tb.height]), abs=0.01), tb.name
 
 
 def _single_beam_scan(rng):

@@ -451,6 +451,25 @@ def _planar_parts(
     return parts
 
 
+def _on_own_plane(p: NDArray[np.float64], n_sigma: float = 3.0) -> NDArray[np.bool_]:
+    """Points within ``n_sigma`` robust deviations (at least 6 mm) of the dominant plane.
+
+    Least-squares plane, trimmed, refitted on the kept points and trimmed again
+    on all points (a minority of points on a parallel face a few centimetres
+    away tilts the first plane); the deviation is the MAD of the residuals.
+    """
+    on = np.ones(len(p), dtype=bool)
+    for _ in range(2):
+        c, n, _ = _plane_frame(p[on])
+        h = (p - c) @ n
+        med = float(np.median(h[on]))
+        sig = 1.4826 * float(np.median(np.abs(h[on] - med)))
+        on = np.abs(h - med) <= max(n_sigma * sig, 0.006)
+        if on.sum() < 3:
+            return np.ones(len(p), dtype=bool)
+    return on
+
+
 def split_facet(
     xyz: NDArray[np.float64],
     index: NDArray[np.int64],
@@ -546,6 +565,15 @@ def split_facet(
                 # the band's own plane: a merged facet may hold faces a few
                 # millimetres apart (T joints of members of unequal thickness)
                 c_run, n_run, _ = _plane_frame(pts[r_idx])
+                # ... or centimetres apart (a strut's face behind the face of the
+                # post it runs into): the band keeps the points of its own plane
+                # and leaves the other face's points to its own band
+                on = _on_own_plane(pts[r_idx])
+                if not on.all() and on.sum() >= min_pts:
+                    r_idx = r_idx[on]
+                    c_run, n_run, _ = _plane_frame(pts[r_idx])
+                    t_on = t[run][on]
+                    length = float(t_on.max() - t_on.min())
                 axis3 = d2 @ inplane
                 axis3 -= (axis3 @ n_run) * n_run
                 rms = float(np.sqrt(np.mean(((pts[r_idx] - c_run) @ n_run) ** 2)))
