@@ -454,20 +454,23 @@ def _planar_parts(
 def _on_own_plane(p: NDArray[np.float64], n_sigma: float = 3.0) -> NDArray[np.bool_]:
     """Points within ``n_sigma`` robust deviations (at least 6 mm) of the dominant plane.
 
-    Least-squares plane, trimmed, refitted on the kept points and trimmed again
-    on all points (a minority of points on a parallel face a few centimetres
-    away tilts the first plane); the deviation is the MAD of the residuals.
+    Least trimmed squares by concentration steps (Rousseeuw's C-steps, started
+    from the least-squares plane): the plane is refitted on the 75 % of points
+    closest to the previous one, which a minority of points on a parallel face
+    a couple of centimetres away does not tilt, unlike a least-squares plane.
+    The deviation is the MAD of all residuals to the final plane.
     """
     on = np.ones(len(p), dtype=bool)
-    for _ in range(2):
+    n_keep = max(int(0.75 * len(p)), 3)
+    for _ in range(4):
         c, n, _ = _plane_frame(p[on])
-        h = (p - c) @ n
-        med = float(np.median(h[on]))
-        sig = 1.4826 * float(np.median(np.abs(h[on] - med)))
-        on = np.abs(h - med) <= max(n_sigma * sig, 0.006)
-        if on.sum() < 3:
-            return np.ones(len(p), dtype=bool)
-    return on
+        r = np.abs((p - c) @ n)
+        on = np.zeros(len(p), dtype=bool)
+        on[np.argpartition(r, n_keep - 1)[:n_keep]] = True
+    c, n, _ = _plane_frame(p[on])
+    h = (p - c) @ n
+    sig = 1.4826 * float(np.median(np.abs(h)))
+    return np.abs(h) <= max(n_sigma * sig, 0.006)
 
 
 def split_facet(
@@ -569,12 +572,24 @@ def split_facet(
                 # post it runs into): the band keeps the points of its own plane
                 # and leaves the other face's points to its own band
                 on = _on_own_plane(pts[r_idx])
+                d_run, w_run = d2, width
                 if not on.all() and on.sum() >= min_pts:
+                    # the direction and width were measured with the other
+                    # face's points: measure them again on the band's own
                     r_idx = r_idx[on]
                     c_run, n_run, _ = _plane_frame(pts[r_idx])
-                    t_on = t[run][on]
+                    q_run = q_all[r_idx]
+                    a_run = _sharpest_direction(q_run, ang, np.radians(6.0), bin_m)
+                    a_run = _sharpest_direction(q_run, a_run, np.radians(0.3), bin_m)
+                    d_run = np.array([np.cos(a_run), np.sin(a_run)])
+                    lo_r, hi_r = _half_max_edges(
+                        q_run @ np.array([-np.sin(a_run), np.cos(a_run)]), bin_m
+                    )
+                    t_on = q_run @ d_run
                     length = float(t_on.max() - t_on.min())
-                axis3 = d2 @ inplane
+                    if params.min_beam_width_m <= hi_r - lo_r <= params.max_beam_width_m:
+                        w_run = hi_r - lo_r
+                axis3 = d_run @ inplane
                 axis3 -= (axis3 @ n_run) * n_run
                 rms = float(np.sqrt(np.mean(((pts[r_idx] - c_run) @ n_run) ** 2)))
                 out.append(
@@ -583,7 +598,7 @@ def split_facet(
                         normal=n_run,
                         axis=axis3 / np.linalg.norm(axis3),
                         centre=c_run,
-                        width=float(width),
+                        width=float(w_run),
                         length=length,
                         plane_rms=rms,
                         parent=parent,
