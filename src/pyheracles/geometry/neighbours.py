@@ -321,7 +321,12 @@ _MAX_LEAF = 32
 
 
 def octree_pca(
-    xyz: NDArray[np.float64], k: int, *, directions: bool = True, max_leaf: int = _MAX_LEAF
+    xyz: NDArray[np.float64],
+    k: int,
+    *,
+    directions: bool = True,
+    max_leaf: int = _MAX_LEAF,
+    bounds: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
     """Exact ``k``-NN covariance eigen-decomposition of every point, compiled.
 
@@ -335,6 +340,9 @@ def octree_pca(
         Also return the eigenvectors of the largest eigenvalue.
     max_leaf
         Largest work cell of the implicit octree (a speed knob, not a result knob).
+    bounds
+        The cloud's ``(lower, upper)`` corners when the caller has them already;
+        computed otherwise.
 
     Returns
     -------
@@ -354,7 +362,7 @@ def octree_pca(
     n = len(arr)
     if not 1 <= k <= n:
         raise InputError(f"k must be between 1 and the number of points ({n}), got {k}")
-    lo, hi = kern.bounding_box(arr)
+    lo, hi = bounds if bounds is not None else kern.bounding_box(arr)
     side = float((hi - lo).max()) or 1.0
     h0 = side * (1.0 + 1e-9) / float(1 << kern.BITS)
     inv_h0 = 1.0 / h0
@@ -435,14 +443,8 @@ def local_pca(
         raise InputError(f"k must be at least 3 for a covariance, got {k}")
     if indices is None and n < _COMPILED_FROM:
         _, indices = knn(arr, int(min(k, n)), tree)
-    if n < _COMPILED_FROM:
-        lo, hi = arr.min(axis=0), arr.max(axis=0)
-    else:
-        from pyheracles.geometry._knn_kernels import bounding_box
-
-        lo, hi = bounding_box(arr)
-    extent2 = float(np.sum((hi - lo) ** 2)) or 1.0
     if indices is not None:
+        lo, hi = arr.min(axis=0), arr.max(axis=0)
         vals = np.empty((n, 3))
         normals = np.empty((n, 3))
         dirs = np.empty((n, 3)) if directions else None
@@ -461,7 +463,13 @@ def local_pca(
             raise InputError(f"the KD-tree holds {tree.n} points but {n} were given")
         # The compiled octree search is exact and 3-4x faster than querying even
         # a shared tree (see _knn_kernels), so a given tree is only checked.
-        vals, normals, dirs = octree_pca(arr, int(min(k, n)), directions=directions)
+        from pyheracles.geometry._knn_kernels import bounding_box
+
+        lo, hi = bounding_box(arr)
+        vals, normals, dirs = octree_pca(
+            arr, int(min(k, n)), directions=directions, bounds=(lo, hi)
+        )
+    extent2 = float(np.sum((hi - lo) ** 2)) or 1.0
     total = vals[:, 0] + vals[:, 1] + vals[:, 2]
     degenerate = total <= _DEGENERATE_TRACE * extent2
     curvature = np.where(degenerate, 1.0 / 3.0, vals[:, 0] / np.where(degenerate, 1.0, total))
