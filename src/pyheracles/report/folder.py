@@ -1,0 +1,188 @@
+"""What a report is made from: the files of one output folder, read once."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from pyheracles.errors import InputError
+
+__all__ = ["CloudSample", "RunFolder", "read_run_folder", "sample_cloud"]
+
+#: Clouds a report shows, in order of preference.
+CLOUD_NAMES = ("segmented.laz", "ground.laz")
+#: Tables shown as they are.
+TABLE_NAMES = ("evaluation.csv", "checkpoints.csv", "tiepoints.csv")
+#: JSON documents summarised in the report.
+JSON_NAMES = (
+    "report.json",
+    "transform.json",
+    "georef.json",
+    "checkpoints.json",
+    "evaluation.json",
+    "frame.json",
+)
+
+
+@dataclass(frozen=True)
+class RunFolder:
+    """The readable content of an output folder.
+
+    Attributes
+    ----------
+    path
+        The folder.
+    run
+        ``run.json`` (provenance, parameters, counts, warnings).
+    objects
+        The objects table (``objects.gpkg`` without its geometry, or
+        ``objects.csv``), None when the step writes none.
+    footprints
+        The objects' polygons (world coordinates) when ``objects.gpkg`` has them.
+    cloud
+        The labelled cloud to show, or None.
+    images
+        PNG figures written by the step.
+    tables, documents
+        Other CSV tables and JSON documents by file name.
+    """
+
+    path: Path
+    run: dict[str, Any]
+    objects: pd.DataFrame | None = None
+    footprints: Any = None
+    cloud: Path | None = None
+    images: list[Path] = field(default_factory=list)
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    documents: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def step(self) -> str:
+        """The step that wrote the folder (``complex``, ``supports`` ...)."""
+        return str(self.run.get("step", "unknown"))
+
+
+def read_run_folder(path: str | Path) -> RunFolder:
+    """Read an output folder written by a ``heracles`` command.
+
+    Raises
+    ------
+    InputError
+        When ``path`` is not a folder or holds no ``run.json``.
+    """
+    p = Path(path)
+    if not p.is_dir():
+        raise InputError(
+            "is not an output folder",
+            path=p,
+            hint="give the folder a heracles command wrote with -o",
+        )
+    run_file = p / "run.json"
+    if not run_file.is_file():
+        raise InputError(
+            "has no run.json, so it was not written by a heracles command",
+            path=p,
+            hint="give the folder a heracles command wrote with -o",
+        )
+    try:
+        run = json.loads(run_file.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"run.json is not readable JSON ({exc})", path=run_file) from exc
+    objects, footprints = _objects(p)
+    cloud = next((p / n for n in CLOUD_NAMES if (p / n).is_file()), None)
+    if cloud is None:
+        moved = sorted(p.glob("*_registered.laz")) + sorted(p.glob("*_georef.laz"))
+        cloud = moved[0] if moved else None
+    tables = {}
+    for n in TABLE_NAMES:
+        if (p / n).is_file():
+            try:
+                tables[n] = pd.read_csv(p / n)
+            except (OSError, ValueError, pd.errors.ParserError):
+                continue
+    docs = {}
+    for n in JSON_NAMES:
+        if (p / n).is_file():
+            try:
+                docs[n] = json.loads((p / n).read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                continue
+    images = sorted(x for x in p.glob("*.png"))
+    return RunFolder(p, run, objects, footprints, cloud, images, tables, docs)
+
+
+def _objects(p: Path) -> tuple[pd.DataFrame | None, Any]:
+    gpkg, csv = p / "objects.gpkg", p / "objects.csv"
+    if gpkg.is_file():
+        import pyogrio
+
+        gdf = pyogrio.read_dataframe(gpkg)
+        table = pd.DataFrame(gdf.drop(columns="geometry", errors="ignore"))
+        return table, gdf if "geometry" in gdf else None
+    if csv.is_file():
+        return pd.read_csv(csv), None
+    return None, None
+
+
+@dataclass(frozen=True)
+class CloudSample:
+    """A subsample of a labelled cloud for pictures and the 3D view.
+
+    ``xyz`` is in world coordinates minus ``origin`` (float32 keeps millimetres
+    there); ``instance`` 0 = no object, ``ground`` True for ground points.
+    """
+
+    xyz: NDArray[np.float32]
+    origin: NDArray[np.float64]
+    instance: NDArray[np.int64]
+    ground: NDArray[np.bool_]
+    n_total: int
+    crs: str | None
+
+
+def sample_cloud(path: Path, max_points: int = 300_000, seed: int = 0) -> CloudSample:
+    """Read a labelled cloud and keep at most ``max_points``, every object represented.
+
+    Each object keeps at least ``min(its points, 300)`` points so that small
+    objects stay visible; the rest of the budget is spread evenly.
+    """
+    import laspy
+
+    las = laspy.read(path)
+    n = len(las.points)
+    dims = set(las.point_format.dimension_names)
+    inst = np.asarray(las["instance"], np.int64) if "instance" in dims else np.zeros(n, np.int64)
+    ground = np.asarray(las.classification) == 2
+    rng = np.random.default_rng(seed)
+    if n > max_points:
+        keep = rng.random(n) < max_points / n
+        ids, first = np.unique(inst, return_index=True)
+        small = ids[ids > 0]
+        if len(small):
+            order = np.argsort(inst, kind="stable")
+            starts = np.searchsorted(inst[order], small)
+            ends = np.searchsorted(inst[order], small, side="right")
+            for s, e in zip(starts, ends, strict=True):
+                take = order[s:e]
+                if keep[take].sum() < min(len(take), 300):
+                    keep[rng.choice(take, min(len(take), 300), replace=False)] = True
+        idx = np.flatnonzero(keep)
+    else:
+        idx = np.arange(n)
+    xyz = np.column_stack([np.asarray(las.x)[idx], np.asarray(las.y)[idx], np.asarray(las.z)[idx]])
+    origin = np.floor(xyz.min(0)) if len(xyz) else np.zeros(3)
+    crs = las.header.parse_crs()
+    return CloudSample(
+        (xyz - origin).astype(np.float32),
+        origin,
+        inst[idx],
+        ground[idx],
+        n,
+        None if crs is None else crs.name,
+    )

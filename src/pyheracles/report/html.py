@@ -1,0 +1,335 @@
+"""``report.html``: one self-contained page per output folder (opens offline, prints well).
+
+What ran with which parameters (automatic values marked), the point balance,
+warnings, the sortable objects table, the figures (plan with every object
+named, the step's own pictures, F1 per object when a reference was given, the
+DTM as a hillshade), an interactive 3D view of the labelled cloud with its
+fitted primitives and check point residuals, and the provenance.  Built from a
+jinja2 template; plotly's JavaScript and every picture are embedded, so the
+file needs nothing else (no CDN).
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import html
+import io
+import json
+import time
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pyheracles.io.atomic import atomic_write_text
+from pyheracles.report.colours import hex_colour, object_colours
+from pyheracles.report.folder import RunFolder, read_run_folder, sample_cloud
+
+__all__ = ["REPORT_HTML", "build_report"]
+
+REPORT_HTML = "report.html"
+
+#: Parameter dataclass of each step: fields whose default is None are automatic.
+PARAMS_OF_STEP = {
+    "complex": "pyheracles.complex:ComplexParams",
+    "supports": "pyheracles.supports:SupportParams",
+    "beams": "pyheracles.framework:BeamParams",
+    "framework": "pyheracles.framework:BeamParams",
+}
+#: Columns that name an object, in order of preference.
+NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id", "role")
+
+
+def _auto_fields(step: str) -> set[str]:
+    spec = PARAMS_OF_STEP.get(step)
+    if spec is None:
+        return set()
+    mod, cls = spec.split(":")
+    try:
+        params = getattr(import_module(mod), cls)
+    except (ImportError, AttributeError):
+        return set()
+    return {f.name for f in dataclasses.fields(params) if f.default is None}
+
+
+def _flatten(d: dict[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    out: list[tuple[str, Any]] = []
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out += _flatten(v, key + ".")
+        else:
+            out.append((key, v))
+    return out
+
+
+def _parameters(run: dict[str, Any], step: str) -> list[dict[str, Any]]:
+    auto = _auto_fields(step)
+    rows = []
+    params = run.get("parameters") or {}
+    for key, value in _flatten(params if isinstance(params, dict) else {"value": params}):
+        leaf = key.split(".")[-1]
+        rows.append({"name": key, "value": _fmt(value), "auto": leaf in auto})
+    return rows
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "NaN" if not np.isfinite(v) else f"{v:.4g}"
+    if isinstance(v, list | tuple):
+        return ", ".join(_fmt(x) for x in v[:12]) + (" ..." if len(v) > 12 else "")
+    return "" if v is None else str(v)
+
+
+def _labels(objects: pd.DataFrame | None) -> tuple[dict[int, str], dict[int, str]]:
+    """Instance -> display name, and instance -> hover text with the object's attributes."""
+    if objects is None or "instance" not in objects:
+        return {}, {}
+    col = next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
+    names, hovers = {}, {}
+    for row in objects.to_dict("records"):
+        try:
+            i = int(row["instance"])
+        except (TypeError, ValueError):
+            continue
+        cls = row.get("class", "object")
+        val = row.get(col) if col else None
+        names[i] = f"{val}" if val is not None and str(val) not in ("", "nan") else f"{cls} {i}"
+        attrs = [f"<b>{html.escape(names[i])}</b> ({html.escape(str(cls))}, instance {i})"]
+        for k, v in list(row.items())[:18]:
+            if (
+                k in ("instance", "geometry")
+                or v is None
+                or (isinstance(v, float) and not np.isfinite(v))
+            ):
+                continue
+            attrs.append(f"{html.escape(str(k))}: {html.escape(_fmt(v))}")
+        hovers[i] = "<br>".join(attrs)
+    return names, hovers
+
+
+def _png_data_uri(path_or_bytes: Path | bytes) -> str:
+    data = path_or_bytes.read_bytes() if isinstance(path_or_bytes, Path) else path_or_bytes
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _fig_png(fig: Any) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _f1_figure(ev: pd.DataFrame) -> bytes | None:
+    if "f1" not in ev or "object" not in ev:
+        return None
+    bars = ev[pd.to_numeric(ev["f1"], errors="coerce").notna()]
+    bars = bars[~bars["object"].astype(str).isin(["mean", "median"])]
+    if bars.empty:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, max(2.5, 0.18 * len(bars))))
+    ax.barh(bars["object"].astype(str), bars["f1"].astype(float), color="steelblue")
+    ax.axvline(0.95, color="crimson", lw=1, ls="--", label="target F1 = 0.95")
+    ax.set_xlim(0, 1)
+    ax.invert_yaxis()
+    ax.set_xlabel("F1 per object against the reference")
+    ax.tick_params(axis="y", labelsize=7)
+    ax.legend(loc="lower left", fontsize=8)
+    fig.tight_layout()
+    return _fig_png(fig)
+
+
+def _hillshade(path: Path) -> bytes | None:
+    try:
+        import rasterio
+    except ImportError:  # pragma: no cover - rasterio is a dependency
+        return None
+    with rasterio.open(path) as src:
+        z = src.read(1).astype(float)
+        nodata = src.nodata
+        res = src.res
+    if nodata is not None:
+        z[z == nodata] = np.nan
+    gy, gx = np.gradient(z, res[1], res[0])
+    az, alt = np.deg2rad(315), np.deg2rad(45)
+    slope = np.arctan(np.hypot(gx, gy))
+    aspect = np.arctan2(-gx, gy)
+    shade = np.sin(alt) * np.cos(slope) + np.cos(alt) * np.sin(slope) * np.cos(az - aspect)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    ax.imshow(shade, cmap="gray", interpolation="nearest")
+    im = ax.imshow(z, cmap="terrain", alpha=0.45, interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="ground height (m)", shrink=0.8)
+    ax.set_title(f"DTM hillshade ({res[0]:.2f} m cells)")
+    ax.set_axis_off()
+    fig.tight_layout()
+    return _fig_png(fig)
+
+
+def _table(
+    df: pd.DataFrame, colours: dict[int, str] | None = None, limit: int = 5000
+) -> dict[str, Any]:
+    cols = [c for c in df.columns if c != "geometry"]
+    rows = []
+    for rec in df.head(limit).to_dict("records"):
+        cells = []
+        for c in cols:
+            v = rec[c]
+            num = isinstance(v, int | float | np.number) and not isinstance(v, bool)
+            cells.append(
+                {
+                    "text": _fmt(v)
+                    if not isinstance(v, float) or not num
+                    else ("NaN" if not np.isfinite(v) else f"{v:.3f}"),
+                    "num": bool(num),
+                }
+            )
+        swatch = None
+        if colours is not None and "instance" in rec:
+            try:
+                swatch = colours.get(int(rec["instance"]))
+            except (TypeError, ValueError):
+                swatch = None
+        rows.append({"cells": cells, "swatch": swatch})
+    return {
+        "columns": cols,
+        "rows": rows,
+        "truncated": max(0, len(df) - limit),
+        "swatches": colours is not None,
+    }
+
+
+def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0) -> Path:
+    """Write ``report.html`` into an output folder of a ``heracles`` command and return it.
+
+    Parameters
+    ----------
+    outdir
+        A folder with a ``run.json`` (and whatever else the step wrote).
+    max_points
+        Points in the 3D view at most (every object keeps at least 300).
+    seed
+        Seed of the subsampling.
+
+    Raises
+    ------
+    InputError
+        When the folder is not an output folder.
+    """
+    import jinja2
+    from plotly.offline import get_plotlyjs
+
+    t0 = time.perf_counter()
+    folder: RunFolder = read_run_folder(outdir)
+    run = folder.run
+    names, hovers = _labels(folder.objects)
+    figures: list[dict[str, str]] = []
+    view = None
+    crs = None
+    warnings = [str(w) for w in (run.get("warnings") or [])]
+    notes = [str(n) for n in (run.get("notes") or [])]
+    if run.get("note"):
+        notes.append(str(run["note"]))
+    colours: dict[int, str] = {}
+    if folder.cloud is not None:
+        sample = sample_cloud(folder.cloud, max_points=max_points, seed=seed)
+        crs = sample.crs
+        ids = [int(i) for i in np.unique(sample.instance) if i > 0]
+        if folder.objects is not None and "instance" in folder.objects:
+            ids = sorted(set(ids) | {int(i) for i in folder.objects["instance"].dropna()})
+        cols = object_colours(max(ids, default=0))
+        colours = {i: hex_colour(cols[i - 1]) for i in ids}
+        from pyheracles.report.plan import plan_figure
+        from pyheracles.report.view3d import primitive_lines, view3d_figure
+
+        if ids:
+            missing = [w for w in warnings if "no points" in w]
+            fig = plan_figure(
+                sample,
+                names,
+                footprints=folder.footprints,
+                missing=missing,
+                title=f"{folder.step}: {folder.path.name}",
+            )
+            figures.append(
+                {
+                    "title": "Plan: every object in its own colour, named",
+                    "src": _png_data_uri(_fig_png(fig)),
+                }
+            )
+        checkpoints = folder.documents.get("checkpoints.json", {}).get("points", [])
+        view = view3d_figure(
+            sample,
+            names,
+            hovers,
+            primitives=primitive_lines(folder.objects, sample.origin),
+            checkpoints=checkpoints,
+        )
+        view_points = len(sample.xyz)
+        view_total = sample.n_total
+    else:
+        view_points = view_total = 0
+    for img in folder.images:
+        figures.append({"title": img.stem.replace("_", " "), "src": _png_data_uri(img)})
+    ev = folder.tables.get("evaluation.csv")
+    if ev is not None:
+        png = _f1_figure(ev)
+        if png:
+            figures.append({"title": "F1 per object", "src": _png_data_uri(png)})
+    dtm = folder.path / "dtm.tif"
+    if dtm.is_file():
+        png = _hillshade(dtm)
+        if png:
+            figures.append({"title": "Terrain model (DTM)", "src": _png_data_uri(png)})
+    counts = run.get("counts") or {}
+    balance = None
+    if {"objects", "ground", "remainder", "total"} <= set(counts):
+        balance = counts["objects"] + counts["ground"] + counts["remainder"] == counts["total"]
+    tables = [{"title": n, **_table(df)} for n, df in folder.tables.items()]
+    summary = {
+        k: v
+        for k, v in (folder.documents.get("report.json") or {}).items()
+        if isinstance(v, int | float | str) and not isinstance(v, bool)
+    }
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("pyheracles.report", "templates"),
+        autoescape=jinja2.select_autoescape(["html", "j2"]),
+    )
+    page = env.get_template("report.html.j2").render(
+        title=f"heracles {folder.step}: {folder.path.name}",
+        run=run,
+        step=folder.step,
+        command=" ".join(map(str, run.get("command") or [])),
+        parameters=_parameters(run, folder.step),
+        counts=counts,
+        balance=balance,
+        warnings=warnings,
+        notes=notes,
+        objects=None if folder.objects is None else _table(folder.objects, colours),
+        figures=figures,
+        tables=tables,
+        summary=summary,
+        view_json=None if view is None else json.dumps(view, separators=(",", ":")),
+        view_points=view_points,
+        view_total=view_total,
+        plotly_js=get_plotlyjs() if view is not None else "",
+        crs=crs,
+        inputs=run.get("inputs") or [],
+        timings=run.get("timings_s") or {},
+        build_s=time.perf_counter() - t0,
+    )
+    return atomic_write_text(folder.path / REPORT_HTML, page)
