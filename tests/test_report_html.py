@@ -65,7 +65,7 @@ def test_report_command_and_bad_folder(demo_out: Path, tmp_path: Path, capsys) -
     res = _result_dir(demo_out)
     assert main(["report", str(res), "--max-points", "20000"]) == 0
     assert (res / "report.html").exists()
-    with pytest.raises(InputError, match="run.json"):
+    with pytest.raises(InputError, match=r"run\.json"):
         build_report(tmp_path)
     assert main(["report", str(tmp_path / "nope")]) == 2
 

@@ -43,5 +43,5 @@ def object_colours(n: int) -> NDArray[np.float64]:
 
 def hex_colour(rgb: NDArray[np.float64] | tuple[float, float, float]) -> str:
     """``#rrggbb`` of an RGB triple in 0-1."""
-    r, g, b = (int(round(255 * float(c))) for c in rgb)
+    r, g, b = (round(255 * float(c)) for c in rgb)
     return f"#{r:02x}{g:02x}{b:02x}"

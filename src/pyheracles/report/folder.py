@@ -162,7 +162,7 @@ def sample_cloud(path: Path, max_points: int = 300_000, seed: int = 0) -> CloudS
     rng = np.random.default_rng(seed)
     if n > max_points:
         keep = rng.random(n) < max_points / n
-        ids, first = np.unique(inst, return_index=True)
+        ids = np.unique(inst)
         small = ids[ids > 0]
         if len(small):
             order = np.argsort(inst, kind="stable")
