@@ -283,6 +283,12 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
         view_total = sample.n_total
     else:
         view_points = view_total = 0
+        images = (folder.documents.get("report.json") or {}).get("images")
+        if isinstance(images, list) and images:
+            from pyheracles.report.view3d import camera_figure
+
+            view = camera_figure(images)
+            view_points = view_total = len(images)
     for img in folder.images:
         figures.append({"title": img.stem.replace("_", " "), "src": _png_data_uri(img)})
     ev = folder.tables.get("evaluation.csv")
@@ -300,6 +306,13 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
     if {"objects", "ground", "remainder", "total"} <= set(counts):
         balance = counts["objects"] + counts["ground"] + counts["remainder"] == counts["total"]
     tables = [{"title": n, **_table(df)} for n, df in folder.tables.items()]
+    objects = folder.objects
+    images = (folder.documents.get("report.json") or {}).get("images")
+    if objects is None and isinstance(images, list) and images:
+        # a bundle adjustment's objects are its images
+        objects = pd.DataFrame(
+            [{k: v for k, v in im.items() if not isinstance(v, dict | list)} for im in images]
+        )
     summary = {
         k: v
         for k, v in (folder.documents.get("report.json") or {}).items()
@@ -319,7 +332,9 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
         balance=balance,
         warnings=warnings,
         notes=notes,
-        objects=None if folder.objects is None else _table(folder.objects, colours),
+        objects=None if objects is None else _table(objects, colours),
+        objects_title="Images" if folder.objects is None and objects is not None else "Objects",
+        view_what="camera stations" if folder.cloud is None else "points",
         figures=figures,
         tables=tables,
         summary=summary,

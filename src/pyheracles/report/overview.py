@@ -46,6 +46,9 @@ def plot_complex_overview(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    from pyheracles.report.colours import GROUND, REMAINDER, object_colours
 
     rng = np.random.default_rng(seed)
     n = len(cloud)
@@ -54,39 +57,117 @@ def plot_complex_overview(
     inst = seg.instance[idx]
     ncols = 2 if scores is not None and len(scores) else 1
     fig, axes = plt.subplots(
-        1, ncols, figsize=(9 * ncols, 9), gridspec_kw={"width_ratios": [3, 2][:ncols]}
+        1, ncols, figsize=(10 * ncols, 9), gridspec_kw={"width_ratios": [3, 2][:ncols]}
     )
     ax = axes[0] if ncols == 2 else axes
     ground = seg.ground[idx] if seg.ground is not None else np.zeros(len(idx), bool)
     rest = (inst == 0) & ~ground
-    ax.scatter(xy[ground, 0], xy[ground, 1], s=0.2, c="0.85", lw=0, label="ground")
-    ax.scatter(xy[rest, 0], xy[rest, 1], s=0.2, c="0.45", lw=0, label="remainder")
+    ax.scatter(xy[ground, 0], xy[ground, 1], s=0.2, color=GROUND, lw=0, rasterized=True)
+    ax.scatter(xy[rest, 0], xy[rest, 1], s=0.2, color=REMAINDER, lw=0, rasterized=True)
     obj = inst > 0
-    cmap = plt.get_cmap("tab20")
-    ax.scatter(xy[obj, 0], xy[obj, 1], s=0.4, c=cmap((inst[obj] * 7) % 20), lw=0)
-    colours = ["black", "crimson", "navy", "darkgreen", "purple"]
+    # one colour per object, never the ground's or the remainder's grey
+    cols = object_colours(int(seg.instance.max(initial=0)))
+    if obj.any():
+        ax.scatter(xy[obj, 0], xy[obj, 1], s=0.4, c=cols[inst[obj] - 1], lw=0, rasterized=True)
+    names = _object_names(seg.objects)
+    for i, name in names.items():
+        m = inst == i
+        if m.any():
+            ax.annotate(
+                name,
+                (np.median(xy[m, 0]), np.median(xy[m, 1])),
+                fontsize=6.5,
+                ha="center",
+                va="center",
+                bbox={
+                    "boxstyle": "round,pad=0.12",
+                    "fc": "white",
+                    "alpha": 0.75,
+                    "ec": cols[i - 1],
+                    "lw": 0.8,
+                },
+            )
+    handles = [
+        Line2D([], [], ls="", marker="s", color=GROUND, label="ground"),
+        Line2D([], [], ls="", marker="s", color=REMAINDER, label="remainder"),
+    ]
+    outline = ["black", "crimson", "navy", "darkgreen", "purple"]
     for k, (name, gdf) in enumerate(layers.items()):
-        gdf.boundary.plot(ax=ax, color=colours[k % len(colours)], lw=0.8, label=f"GIS: {name}")
+        gdf.boundary.plot(ax=ax, color=outline[k % len(outline)], lw=0.8)
+        handles.append(
+            Line2D([], [], color=outline[k % len(outline)], lw=0.8, label=f"GIS outline: {name}")
+        )
+    handles.append(
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="s",
+            color=cols[0] if len(cols) else "C0",
+            label="objects: one colour each, named on the map",
+        )
+    )
+    ax.legend(handles=handles, loc="upper right", fontsize=8)
     ax.set_aspect("equal")
     ax.ticklabel_format(useOffset=False, style="plain")
+    crs = getattr(cloud.crs, "name", None) or (str(cloud.crs) if cloud.crs else None)
     ax.set_xlabel("E (m)")
     ax.set_ylabel("N (m)")
     counts = seg.counts()
     ax.set_title(
         f"{counts['n_objects']} objects, {counts['objects']:,} object points, "
-        f"{counts['ground']:,} ground, {counts['remainder']:,} remainder"
+        f"{counts['ground']:,} ground, {counts['remainder']:,} remainder\n"
+        f"CRS: {crs or 'none (local coordinates)'}",
+        fontsize=10,
     )
-    ax.legend(loc="upper right", markerscale=20, fontsize=8)
+    missing = _features_without_points(seg.objects, layers)
+    if missing:
+        fig.text(
+            0.01,
+            0.01,
+            "features that got no points: " + ", ".join(missing),
+            fontsize=8,
+            color="crimson",
+        )
     if ncols == 2:
         bars = scores.dropna(subset=["f1"])
         axes[1].barh(bars["object"].astype(str), bars["f1"], color="steelblue")
-        axes[1].axvline(0.95, color="crimson", lw=1, ls="--")
+        axes[1].axvline(0.95, color="crimson", lw=1, ls="--", label="target: F1 = 0.95")
         axes[1].set_xlim(0, 1)
         axes[1].invert_yaxis()
-        axes[1].set_xlabel("F1 per object")
+        axes[1].set_xlabel("F1 per object against the generated reference")
         axes[1].tick_params(axis="y", labelsize=7)
-    fig.tight_layout()
+        axes[1].legend(loc="lower left", fontsize=8)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
     return Path(path)
+
+
+#: Attribute columns that name a GIS feature, in order of preference.
+NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id")
+
+
+def _object_names(objects: pd.DataFrame) -> dict[int, str]:
+    col = next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
+    out = {}
+    for row in objects.to_dict("records"):
+        v = row.get(col) if col else None
+        i = int(row["instance"])
+        out[i] = str(v) if v is not None and str(v) not in ("", "nan") else f"{row['class']} {i}"
+    return out
+
+
+def _features_without_points(objects: pd.DataFrame, layers: Mapping[str, Any]) -> list[str]:
+    """Names of the GIS features (per layer) that became no object."""
+    out = []
+    for name, gdf in layers.items():
+        got = set()
+        if "source_fid" in objects and "class" in objects:
+            got = set(objects.loc[objects["class"] == name, "source_fid"].dropna().astype(int))
+        col = next((c for c in NAME_COLUMNS if c in gdf), None)
+        for k in range(len(gdf)):
+            if k not in got:
+                out.append(f"{name} {gdf[col].iloc[k] if col else k}")
+    return out

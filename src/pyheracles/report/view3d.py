@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from pyheracles.report.colours import GROUND, REMAINDER, hex_colour, object_colours
 from pyheracles.report.folder import CloudSample
 
-__all__ = ["primitive_lines", "residual_lines", "view3d_figure"]
+__all__ = ["camera_figure", "primitive_lines", "residual_lines", "view3d_figure"]
 
 Array = NDArray[np.float64]
 
@@ -233,3 +233,55 @@ def view3d_figure(
     import json
 
     return json.loads(fig.to_json())
+
+
+def camera_figure(images: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
+    """A plotly figure of a bundle adjustment's camera stations (hover: image statistics)."""
+    import json
+
+    import plotly.graph_objects as go
+
+    rows = [im for im in images if all(np.isfinite(_num(im, k)) for k in ("X0", "Y0", "Z0"))]
+    if not rows:
+        return None
+    xyz = np.array([[_num(im, "X0"), _num(im, "Y0"), _num(im, "Z0")] for im in rows])
+    rms = np.array([_num(im, "rms_px") for im in rows])
+    text = [
+        f"<b>{html_escape(str(im.get('name', im.get('id'))))}</b><br>"
+        f"points: {im.get('n_points', '?')}<br>RMS: {_num(im, 'rms_px'):.3f} px<br>"
+        f"coverage: {_num(im, 'coverage_rect'):.2f}"
+        for im in rows
+    ]
+    fig = go.Figure(
+        go.Scatter3d(
+            x=xyz[:, 0],
+            y=xyz[:, 1],
+            z=xyz[:, 2],
+            mode="markers+text",
+            name="camera stations",
+            text=[str(im.get("name", im.get("id"))) for im in rows],
+            hovertext=text,
+            hoverinfo="text",
+            textfont={"size": 9},
+            marker={
+                "size": 5,
+                "color": rms,
+                "colorscale": "Viridis",
+                "showscale": True,
+                "colorbar": {"title": "image RMS (px)"},
+            },
+        )
+    )
+    fig.update_layout(
+        margin={"l": 0, "r": 0, "t": 0, "b": 0},
+        template="plotly_white",
+        scene={"aspectmode": "data"},
+    )
+    return json.loads(fig.to_json())
+
+
+def html_escape(text: str) -> str:
+    """Escape text for plotly's HTML-like hover labels."""
+    import html
+
+    return html.escape(text)
