@@ -223,13 +223,13 @@ class Outliers:
         Outliers / all points (0.005 = 0.5 %).
     isolated, clusters, reflections
         Relative weights of the three kinds: isolated points (half of them
-        below the floor), small clusters (dust, birds, passers-by), and
+        under scanned surfaces, as multipath echoes), small clusters (dust, birds, passers-by), and
         virtual points behind glass (mirror images); reflections fall back to
         isolated points when the scene has no glass.
     cluster_size
         Points per cluster (min, max).
     below_m
-        How far below the lowest surface isolated points reach, metres.
+        How far under a scanned surface the low isolated points lie, metres.
     """
 
     share: float = 0.005
@@ -696,7 +696,9 @@ def _airborne(
             prims.append(p[detected])
             pulse.append(a[detected])
             ret.append(np.full(detected.sum(), r_no))
-            go = caster.porous[p] | ~detected
+            # foliage lets the rest of the pulse through; a solid surface stops it, whether
+            # its echo was strong enough to be recorded or not
+            go = caster.porous[p]
             nxt = a[go]
             travelled[nxt] = (
                 travelled[nxt]
@@ -788,11 +790,14 @@ def _outliers(
     n_kind[0] += n - n_kind.sum()
     parts = []
     span = hi - lo
-    # isolated: half in the air over the scene, half below the lowest surface
+    # isolated: half in the air over the scene, half under real surface points (multipath)
     k = n_kind[0]
     iso = lo + rng.random((k, 3)) * span
     below = rng.random(k) < 0.5
-    iso[below, 2] = lo[2] - rng.uniform(0.2, spec.below_m, below.sum())
+    nb = int(below.sum())
+    if nb and n_good:
+        under = block["xyz"][rng.integers(0, n_good, nb)]
+        iso[below] = under - np.outer(rng.uniform(0.2, spec.below_m, nb), [0.0, 0.0, 1.0])
     iso[~below, 2] = lo[2] + rng.uniform(0, span[2] + 2.0, (~below).sum())
     parts.append((iso, codes["outlier_isolated"]))
     # clusters

@@ -86,7 +86,7 @@ GROUND = Material("ground", 0.3)
 METAL = Material("metal", 0.25)
 GLASS = Material("glass", 0.08, transmittance=0.9, matchable=False)
 FOLIAGE = Material("foliage", 0.45, porous=True)
-WATER = Material("water", 0.02, matchable=False)
+WATER = Material("water", 0.005, matchable=False)  # specular: few diffuse echoes
 MATERIALS = {m.name: m for m in (STONE, PLASTER, TIMBER, GROUND, METAL, GLASS, FOLIAGE, WATER)}
 
 
