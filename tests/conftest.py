@@ -22,3 +22,10 @@ def shared_data() -> Path:
 def rng() -> np.random.Generator:
     """A seeded random generator."""
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(autouse=True)
+def _no_reports_unless_asked(request, monkeypatch) -> None:
+    """Commands skip report.html in tests (seconds each), except the tests of the reports."""
+    if "report" not in request.node.module.__name__:
+        monkeypatch.setenv("HERACLES_NO_REPORT", "1")

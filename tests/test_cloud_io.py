@@ -170,3 +170,129 @@ def test_e57_two_scans_are_merged(tmp_path: Path, rng) -> None:
     bad.write_bytes(b"ASTM-E57" + b"\0" * 100)
     with pytest.raises(InputError, match=r"bad\.e57: cannot read as E57"):
         read_cloud(bad)
+
+
+# ----------------------------------------------------------------------------- issue 15, defect 5
+def _nan_world(n: int = 10, bad: tuple[int, ...] = (2, 5, 7)) -> np.ndarray:
+    world = np.column_stack([85000 + np.arange(n), 447000 + np.arange(n), np.arange(n) * 0.5])
+    world[list(bad), bad[0] % 3] = np.nan
+    world[bad[-1], 2] = np.inf
+    return world
+
+
+def _assert_one_nan_error(exc: pytest.ExceptionInfo, name: str, count: int, total: int) -> None:
+    text = str(exc.value)
+    assert text.startswith(str(exc.value.path)) and exc.value.path.endswith(name)
+    assert f"{count} of {total} points have NaN or infinite coordinates" in text
+    assert "remove them first" in text
+
+
+@pytest.mark.parametrize("suffix", [".xyz", ".csv", ".txt", ".pts"])
+def test_text_readers_reject_nan_once_naming_file_count_and_fix(tmp_path: Path, suffix) -> None:
+    path = tmp_path / f"holes{suffix}"
+    sep = "," if suffix == ".csv" else " "
+    np.savetxt(path, _nan_world(), delimiter=sep, fmt="%.3f")
+    with pytest.raises(InputError) as exc:
+        read_cloud(path)
+    _assert_one_nan_error(exc, path.name, 3, 10)
+
+
+def test_ply_reader_rejects_nan(tmp_path: Path) -> None:
+    from pyheracles.io.ply import write_ply
+
+    good = PointCloud.from_world(np.nan_to_num(_nan_world()))
+    path = write_ply(good, tmp_path / "holes.ply")
+    raw = bytearray(path.read_bytes())
+    body = raw.index(b"end_header\n") + len(b"end_header\n")
+    table = np.frombuffer(bytes(raw[body:]), dtype="<f8").reshape(10, 3).copy()
+    table[[2, 5, 7], [2, 2, 2]] = np.nan
+    path.write_bytes(bytes(raw[:body]) + table.tobytes())
+    with pytest.raises(InputError) as exc:
+        read_cloud(path)
+    _assert_one_nan_error(exc, "holes.ply", 3, 10)
+
+
+def test_e57_reader_rejects_nan(tmp_path: Path, monkeypatch) -> None:
+    pye57 = pytest.importorskip("pye57")
+    world = _nan_world()
+    path = tmp_path / "holes.e57"
+    e57 = pye57.E57(str(path), mode="w")
+    good = np.nan_to_num(world, posinf=0.0)
+    e57.write_scan_raw({k: good[:, i].copy() for i, k in enumerate(("cartesianX",
+                        "cartesianY", "cartesianZ"))})  # fmt: skip
+    e57.close()
+    read_scan = pye57.E57.read_scan
+
+    def with_holes(self, *args, **kwargs):  # libE57 writes no NaN: put them in on reading
+        data = read_scan(self, *args, **kwargs)
+        for i, k in enumerate(("cartesianX", "cartesianY", "cartesianZ")):
+            data[k] = world[:, i].copy()
+        return data
+
+    monkeypatch.setattr(pye57.E57, "read_scan", with_holes)
+    with pytest.raises(InputError) as exc:
+        read_cloud(path)
+    _assert_one_nan_error(exc, "holes.e57", 3, 10)
+
+
+def test_las_with_non_finite_header_is_a_clear_error(tmp_path: Path) -> None:
+    las = laspy.LasData(laspy.LasHeader(point_format=6, version="1.4"))
+    las.X = np.arange(5)
+    las.write(tmp_path / "nanoffset.las")
+    raw = bytearray((tmp_path / "nanoffset.las").read_bytes())
+    raw[155:163] = np.array([np.nan]).tobytes()  # the header's x offset
+    (tmp_path / "nanoffset.las").write_bytes(bytes(raw))
+    with pytest.raises(InputError, match=r"nanoffset\.las: invalid header scales"):
+        read_cloud(tmp_path / "nanoffset.las")
+
+
+def test_from_world_and_writers_reject_nan(tmp_path: Path) -> None:
+    with pytest.raises(InputError) as exc:
+        PointCloud.from_world(_nan_world(), source="made.csv")
+    _assert_one_nan_error(exc, "made.csv", 3, 10)
+    bad = PointCloud(_nan_world(), source="made.csv")  # built directly: caught on writing
+    for suffix in (".laz", ".ply", ".csv"):
+        with pytest.raises(InputError, match=r"made\.csv: 3 of 10 points have NaN"):
+            write_cloud(bad, tmp_path / f"out{suffix}")
+    assert not list(tmp_path.iterdir())  # nothing written, not at the LAS offset either
+
+
+@pytest.mark.parametrize("name", ["scans", "scans.laz"])
+def test_a_folder_is_not_a_point_cloud_file(tmp_path: Path, rng, name: str) -> None:
+    folder = tmp_path / name
+    folder.mkdir()
+    write_cloud(_rd_cloud(rng, 10), folder / "a.laz")
+    with pytest.raises(InputError, match="is a folder, not a point cloud file") as exc:
+        read_cloud(folder)
+    assert str(folder) in str(exc.value) and "a.laz" in str(exc.value)
+    from pyheracles.io.las import read_las
+    from pyheracles.io.ply import read_ply
+    from pyheracles.io.text import read_text
+
+    for reader in (read_las, read_ply, read_text):
+        with pytest.raises(InputError, match="is a folder, not a point cloud file"):
+            reader(folder)
+
+
+def test_all_points_at_one_location_names_the_file() -> None:
+    pc = PointCloud.from_world(np.tile([85000.0, 447000.0, 2.0], (6, 1)), source="flat.xyz")
+    with pytest.raises(InputError, match=r"^flat\.xyz: all 6 points of the point cloud are at"):
+        pc.validate()
+
+
+@pytest.mark.parametrize("command", ["ground", "register"])
+def test_cli_commands_reject_nan_clouds_with_exit_code_2(tmp_path: Path, command: str, capsys):
+    from pyheracles.cli import main
+
+    path = tmp_path / "holes.xyz"
+    np.savetxt(path, _nan_world(), fmt="%.3f")
+    good = tmp_path / "good.xyz"
+    np.savetxt(good, np.nan_to_num(_nan_world()), fmt="%.3f")
+    args = {
+        "ground": ["ground", str(path), "-o", str(tmp_path / "out")],
+        "register": ["register", str(path), str(good), "--auto", "-o", str(tmp_path / "out")],
+    }[command]
+    assert main(args) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "holes.xyz" in err and "3 of 10 points have NaN" in err and "remove them first" in err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

@@ -140,3 +140,68 @@ def test_demo_report_in_a_real_browser(demo_out: Path) -> None:
 
     n = len(pyogrio.read_dataframe(res / "objects.gpkg"))
     check_in_browser(res / "report.html", "demo", n)
+
+
+def _objects_in(folder: Path) -> int:
+    import pandas as pd
+
+    if (folder / "objects.gpkg").exists():
+        import pyogrio
+
+        return len(pyogrio.read_dataframe(folder / "objects.gpkg"))
+    return len(pd.read_csv(folder / "objects.csv"))
+
+
+def test_supports_beams_and_registration_reports_in_a_real_browser(tmp_path: Path) -> None:
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import write_cloud
+    from pyheracles.registration.points import write_points
+    from pyheracles.synthetic.buildings import building_scene
+    from pyheracles.synthetic.church import ChurchParams, make_church
+    from pyheracles.synthetic.truss import TrussParams, make_truss_roof
+
+    scene = building_scene("pavilion", spacing_m=0.08, rng=7)
+    src = tmp_path / "pavilion.laz"
+    write_cloud(PointCloud.from_world(scene.xyz + np.array([1000.0, 2000.0, 50.0])), src)
+    assert main(["supports", str(src), "-o", str(tmp_path / "sup")]) == 0
+    roof = make_truss_roof(TrussParams(n_points=60_000), rng=3)
+    write_cloud(PointCloud.from_world(roof.xyz), tmp_path / "roof.laz")
+    assert main(["beams", str(tmp_path / "roof.laz"), "-o", str(tmp_path / "beams")]) == 0
+    s = make_church(ChurchParams(spacing_m=0.3, window_spacing_m=0.1), rng=5)
+    write_cloud(s.exterior, tmp_path / "exterior.laz")
+    write_cloud(s.interior, tmp_path / "interior.laz")
+    write_points(tmp_path / "ties_ext.csv", s.manual_ties_exterior)
+    write_points(tmp_path / "ties_int.csv", s.manual_ties_interior)
+    assert main(["register", str(tmp_path / "interior.laz"), str(tmp_path / "exterior.laz"),
+                 "--tiepoints", str(tmp_path / "ties_int.csv"),
+                 "--tiepoints", str(tmp_path / "ties_ext.csv"),
+                 "-o", str(tmp_path / "reg")]) == 0  # fmt: skip
+    for name in ("sup", "beams", "reg"):
+        report = tmp_path / name / "report.html"
+        assert report.exists(), f"{name}: the command wrote no report.html"
+        n = _objects_in(tmp_path / name) if name != "reg" else None
+        check_in_browser(report, name, n)
+    page = (tmp_path / "sup" / "report.html").read_text(encoding="utf-8")
+    assert "fitted primitives" in page
+
+
+def test_bundle_report_in_a_real_browser(shared_data: Path, tmp_path: Path) -> None:
+    d = shared_data / "dbat" / "dbat"
+    out = tmp_path / "bundle"
+    assert (
+        main(
+            [
+                "bundle",
+                str(d / "pmexports" / "camcal-pmexport.txt"),
+                "--control",
+                str(d / "ref" / "camcal-fixed.txt"),
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    import json
+
+    images = json.loads((out / "report.json").read_text())["images"]
+    check_in_browser(out / "report.html", "bundle", len(images))

@@ -1,7 +1,5 @@
 """``python -m pyheracles`` runs the ``heracles`` command."""
 
-import sys
+from pyheracles.cli import run
 
-from pyheracles.cli import main
-
-sys.exit(main())
+run()

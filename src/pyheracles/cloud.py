@@ -45,6 +45,20 @@ class PointCloud:
         means "choose 1 mm".
     source
         File the cloud was read from, for error messages and provenance.
+    las_header
+        The ``laspy.LasHeader`` of the LAS/LAZ file the cloud was read from (point
+        format, extra-byte descriptions, VLRs and EVLRs), ``None`` for other sources.
+        Writers start from it so that a written cloud keeps every dimension of its
+        source (see :func:`pyheracles.io.las.write_las`); :meth:`subset`,
+        :meth:`with_xyz` and :meth:`with_attributes` keep it.
+
+    Raises
+    ------
+    InputError
+        Coordinates not of shape (N, 3), a non-finite offset, attributes of the
+        wrong length.  NaN coordinates are refused by :meth:`from_world`, by every
+        reader and writer of :mod:`pyheracles.io`, and by :meth:`validate`, which
+        every step calls; a cloud built directly may hold them until then.
 
     Examples
     --------
@@ -60,6 +74,7 @@ class PointCloud:
     crs: Any = None
     scale: NDArray[np.float64] | None = None
     source: str | None = None
+    las_header: Any = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         xyz = np.ascontiguousarray(self.xyz, dtype=np.float64)
@@ -68,7 +83,14 @@ class PointCloud:
                 f"coordinates must have shape (N, 3), got {xyz.shape}", path=self.source
             )
         object.__setattr__(self, "xyz", xyz)
-        object.__setattr__(self, "offset", np.asarray(self.offset, dtype=np.float64).reshape(3))
+        offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
+        if not np.isfinite(offset).all():
+            raise InputError(
+                f"the offset {offset.tolist()} is not finite",
+                path=self.source,
+                hint="check the header offsets of the file",
+            )
+        object.__setattr__(self, "offset", offset)
         if self.scale is not None:
             object.__setattr__(self, "scale", np.asarray(self.scale, dtype=np.float64).reshape(3))
         attrs = {k: np.asarray(v) for k, v in dict(self.attributes).items()}
@@ -101,20 +123,42 @@ class PointCloud:
     ) -> PointCloud:
         """Build a cloud from world coordinates, choosing a local offset.
 
-        The default offset is the minimum corner rounded down to whole metres,
-        so local coordinates stay small and the offset itself is exact.
+        Without ``scale`` the default offset is the minimum corner rounded down
+        to whole metres, so local coordinates stay small and the offset itself
+        is exact.  With ``scale`` (the quantisation step of the source, e.g.
+        0.01 m for coordinates written with two decimals) the offset is the
+        minimum corner and the local coordinates are snapped to multiples of
+        ``scale`` from it: the local frame then depends only on the points, not
+        on how large their world coordinates are (the float64 rounding of a
+        coordinate near 10^9 m, about 10^-7 m, is removed), so every result
+        computed in it is independent of the offset.
+
+        Raises
+        ------
+        InputError
+            NaN or infinite coordinates (naming ``source`` and counting them).
         """
         world = np.asarray(world_xyz, dtype=np.float64).reshape(-1, 3)
-        if offset is None:
-            finite = world[np.isfinite(world).all(axis=1)]
-            offset = np.floor(finite.min(axis=0)) if len(finite) else np.zeros(3)
-        off = np.asarray(offset, dtype=np.float64).reshape(3)
+        reject_non_finite(world, source)
+        step = None if scale is None else np.asarray(scale, dtype=np.float64).reshape(3)
+        if step is not None and not (np.isfinite(step).all() and (step > 0).all()):
+            raise InputError(f"scale must be positive, got {step.tolist()}", path=source)
+        if offset is not None:
+            off = np.asarray(offset, dtype=np.float64).reshape(3)
+        elif len(world) == 0:
+            off = np.zeros(3)
+        else:
+            lo = world.min(axis=0)
+            off = lo if step is not None else np.floor(lo)
+        xyz = world - off
+        if step is not None:
+            xyz = np.round(xyz / step) * step
         return cls(
-            xyz=world - off,
+            xyz=xyz,
             offset=off,
             attributes={k: np.asarray(v) for k, v in (attributes or {}).items()},
             crs=crs,
-            scale=None if scale is None else np.asarray(scale, dtype=np.float64),
+            scale=step,
             source=source,
         )
 
@@ -152,7 +196,8 @@ class PointCloud:
 
     # ------------------------------------------------------------------ checks
     def validate(self, *, what: str = "point cloud") -> PointCloud:
-        """Raise :class:`InputError` if the cloud is empty or has non-finite coordinates.
+        """Raise :class:`InputError` if the cloud is empty, has non-finite coordinates,
+        or all its points are at one location.
 
         Returns the cloud itself so it can be chained.
         """
@@ -168,7 +213,15 @@ class PointCloud:
                 f"the {what} has {int(bad.sum())} points with NaN or infinite coordinates "
                 f"(first at row {int(np.flatnonzero(bad)[0])})",
                 path=self.source,
-                hint="remove or repair those points before processing",
+                hint="remove them first (or repair them), then run again",
+            )
+        if len(self) > 1 and not np.ptp(self.xyz, axis=0).any():
+            where = np.round(self.world_xyz()[0], 3).tolist()
+            raise InputError(
+                f"all {len(self)} points of the {what} are at the same location {where}",
+                path=self.source,
+                hint="the file holds no usable geometry; check its export (scale factor, "
+                "coordinate columns)",
             )
         return self
 
@@ -183,3 +236,18 @@ class PointCloud:
             f"PointCloud(n={len(self)}, offset={self.offset.tolist()}, crs={crs!r}, "
             f"attributes={sorted(self.attributes)})"
         )
+
+
+def reject_non_finite(xyz: NDArray[np.float64], source: str | None) -> None:
+    """One :class:`InputError` for all NaN / infinite points, naming the file and counting them."""
+    if xyz.size == 0 or np.isfinite(xyz).all():
+        return
+    bad = ~np.isfinite(xyz).all(axis=1)
+    rows = np.flatnonzero(bad)
+    raise InputError(
+        f"{len(rows)} of {len(xyz)} points have NaN or infinite coordinates "
+        f"(rows {', '.join(map(str, rows[:5].tolist()))}{' ...' if len(rows) > 5 else ''})",
+        path=source,
+        hint="remove them first (delete those rows, or filter the cloud, e.g. with PDAL "
+        "filters.range or CloudCompare), then run again",
+    )

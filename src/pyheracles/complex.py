@@ -36,7 +36,7 @@ from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import point_spacing
 from pyheracles.io.vector import align_crs, validate_polygons
-from pyheracles.labels import Segmentation
+from pyheracles.labels import Segmentation, merge_rows
 from pyheracles.progress import track
 from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
 
@@ -810,7 +810,10 @@ def _objects_frame(
              "n_points": pd.Series(dtype=np.int64)},
             geometry=gpd.GeoSeries([], crs=crs),
         )  # fmt: skip
-    frame = pd.DataFrame(list(rows))
+    # attribute types of the layers kept (an integer id stays integer where other
+    # layers lack it, instead of NaN-padded float)
+    rename = lambda a: f"attr_{a}" if a in _RESERVED else a  # noqa: E731
+    frame = merge_rows(rows, [layers[name] for name in order], rename=rename)
     frame["instance"] = frame["instance"].astype(np.int32)
     frame["n_points"] = frame["n_points"].astype(np.int64)
     return gpd.GeoDataFrame(frame, geometry=gpd.GeoSeries(list(geometries), crs=crs))

@@ -125,7 +125,7 @@ class BeamParams:
         if self.thin_spacing_m is not None and not 0 < self.thin_spacing_m < self.min_beam_width_m:
             raise InputError(
                 f"thin_spacing_m must be in (0, min_beam_width_m), got {self.thin_spacing_m}",
-                hint="use a spacing finer than the narrowest beam face, or None for no thinning",
+                hint="in Python: BeamParams.thin_spacing_m below --min-width, or None: no thinning",
             )
         if not 0 < self.min_beam_width_m < self.max_beam_width_m:
             raise InputError(
@@ -1199,7 +1199,7 @@ def segment_beams(
             f"the cloud has {len(arr)} points; beam segmentation needs at least "
             f"{4 * p.min_facet_points}",
             path=source,
-            hint="give a denser cloud of the framework or lower min_facet_points",
+            hint="give a denser cloud (in Python: lower BeamParams.min_facet_points)",
         )
     gen = np.random.default_rng(rng)
     timings: dict[str, float] = {}
@@ -1221,7 +1221,7 @@ def segment_beams(
         raise InputError(
             "no planar facet found: the cloud has no smooth surfaces at this density",
             path=source,
-            hint="check that the cloud shows the beams' faces, or raise region.angle_deg",
+            hint="check that the cloud shows the beams' faces, or raise --angle",
         )
     t1 = time.perf_counter()
     order = np.argsort(regions.labels, kind="stable")

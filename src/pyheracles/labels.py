@@ -7,8 +7,9 @@ ground, or the remainder.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -16,7 +17,47 @@ from numpy.typing import NDArray
 
 from pyheracles.errors import HeraclesError
 
-__all__ = ["Segmentation"]
+__all__ = [
+    "ASPRS_CLASSES",
+    "ASPRS_GROUND",
+    "ASPRS_UNCLASSIFIED",
+    "Segmentation",
+    "asprs_class",
+    "asprs_classification",
+    "merge_rows",
+]
+
+ASPRS_UNCLASSIFIED = 1
+"""ASPRS class of points in no object (the remainder)."""
+ASPRS_GROUND = 2
+"""ASPRS class of ground points."""
+
+#: ASPRS LAS 1.4 class code written for each class name (README "Output files").
+#: Standard codes where the ASPRS table has one (6 building, 9 water, 11 road
+#: surface, 17 bridge deck); codes 64-255 are "user definable" in LAS 1.4 R15 and
+#: hold the heritage classes the standard lacks (walls and fences, gates, and the
+#: structural elements of step 2).  Names are matched case-blind, singular or plural.
+ASPRS_CLASSES: Mapping[str, int] = {
+    "building": 6, "house": 6, "pand": 6, "pavilion": 6, "body": 6, "attic": 6, "roof": 6,
+    "water": 9, "road": 11, "bridge": 17,
+    "wall": 64, "fence": 64, "enclosure": 64, "scheiding": 64,
+    "gate": 65, "gateway": 65,
+    "column": 66, "pier": 67, "engaged_column": 68, "beam": 69,
+}  # fmt: skip
+
+
+def asprs_class(name: str) -> int:
+    """ASPRS class code of a class name (:data:`ASPRS_CLASSES`; 1 = unclassified if unknown).
+
+    >>> asprs_class("building"), asprs_class("Walls"), asprs_class("gate"), asprs_class("kiosk")
+    (6, 64, 65, 1)
+    """
+    key = str(name).strip().lower().replace(" ", "_").replace("-", "_")
+    if key in ASPRS_CLASSES:
+        return ASPRS_CLASSES[key]
+    if key.endswith("s") and key[:-1] in ASPRS_CLASSES:
+        return ASPRS_CLASSES[key[:-1]]
+    return ASPRS_UNCLASSIFIED
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,3 +144,62 @@ class Segmentation:
         elif np.any(self.instance != 0):
             raise HeraclesError("labels inconsistent: points carry object ids but no objects")
         return c
+
+
+def asprs_classification(seg: Segmentation) -> NDArray[np.uint8]:
+    """Per-point ASPRS class: 2 ground, the object's class code (:func:`asprs_class`), 1 else."""
+    codes = np.full(256, ASPRS_UNCLASSIFIED, dtype=np.uint8)
+    for code, name in seg.classes.items():
+        codes[int(code)] = asprs_class(name)
+    codes[0] = ASPRS_UNCLASSIFIED
+    out = codes[seg.class_id]
+    if seg.ground is not None:
+        out[seg.ground] = ASPRS_GROUND
+    return out
+
+
+def merge_rows(
+    rows: Sequence[Mapping[str, Any]], sources: Iterable[pd.DataFrame], rename: Any = None
+) -> pd.DataFrame:
+    """A table from row dicts, each column with the dtype it has in the source tables.
+
+    Rows built from several layers hold each layer's attributes; where a layer
+    lacks a column the row has no value, and ``pd.DataFrame(rows)`` turns such
+    an integer column into float (``503100000000035.0``, and digits lost above
+    2^53) and a boolean one into object.  Here a column that is integer
+    (boolean) in every source holding it keeps that type exactly, as pandas'
+    nullable ``Int64``-style (``boolean``) dtype when values are missing, which
+    GeoPackage writes as an integer (boolean) field.  ``rename(name)`` maps a
+    source column name to its name in the rows (``None``: the same name).
+    """
+    rows = list(rows)
+    frame = pd.DataFrame(rows)
+    kinds: dict[str, set[Any]] = {}
+    for table in sources:
+        geometry = getattr(table, "_geometry_column_name", None)
+        for col in table.columns:
+            if col != geometry:
+                target = rename(col) if rename is not None else col
+                kinds.setdefault(str(target), set()).add(table[col].dtype)
+    for col, dtypes in kinds.items():
+        if col not in frame.columns or len(dtypes) != 1:
+            continue
+        dtype = next(iter(dtypes))
+        if not (pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_integer_dtype(dtype)):
+            continue
+        values = [row.get(col) for row in rows]
+        present = [v for v in values if not _is_missing(v)]
+        if len(present) == len(values):
+            frame[col] = np.asarray(values).astype(dtype)
+            continue
+        if pd.api.types.is_bool_dtype(dtype):
+            nullable = "boolean"
+        else:  # int32 -> Int32, uint16 -> UInt16
+            name = np.dtype(dtype).name if isinstance(dtype, np.dtype) else str(dtype)
+            nullable = name.capitalize().replace("Uint", "UInt")
+        frame[col] = pd.array([None if _is_missing(v) else v for v in values], dtype=nullable)
+    return frame
+
+
+def _is_missing(value: Any) -> bool:
+    return value is None or value is pd.NA or (isinstance(value, float) and np.isnan(value))

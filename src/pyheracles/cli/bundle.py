@@ -20,8 +20,15 @@ _HELP = "\n\n".join(
         "PROJECT: a DBAT XML script (.xml, its operations give the estimated parameters and "
         "the datum), a PhotoModeler text export (.txt), a PhotoScan/Metashape archive "
         "(.psz) or a COLMAP text model folder.",
-        "--control: control/check points 'id[,label],X,Y,Z[,sXYZ | sX,sY,sZ][,check]' "
-        "(no standard deviation = fixed). --estimate: interior parameters to estimate "
+        "--control: control/check points, one per line: id, label, X, Y, Z, then s or "
+        "sX sY sZ, then 'check' for a check point (label, standard deviations and role "
+        "optional; no standard deviation = fixed point). A first line of column names "
+        "(id,label,X,Y,Z,sX,sY,sZ,role) or --control-columns resolves ambiguous rows "
+        "(a numeric label followed by X Y Z); anything ambiguous is an error naming the "
+        "line. --image-size WIDTHxHEIGHT: for PhotoModeler exports without the image size "
+        "on line 2. --snooping w (Baarda, a priori sigma) or tau (Pope, posterior sigma0). "
+        "A run that fails still writes its diagnosis (report.txt, report.json) into OUTDIR. "
+        "--estimate: interior parameters to estimate "
         "(cc,px,py,as,sk,K1,K2,K3,P1,P2; 'none' = fixed camera; default: the project's "
         "choice). --damping gna (Gauss-Newton-Armijo, DBAT default), lm or gn. "
         "--positions: prior camera positions 'image,X,Y,Z,s' used as weighted observations; "
@@ -42,11 +49,28 @@ def register(app: typer.Typer) -> None:
 
     @app.command("bundle", help=_HELP)
     def bundle_cmd(
-        project: Annotated[Path, typer.Argument(help="Project file (.xml DBAT script, .txt PM).")],
+        project: Annotated[
+            Path,
+            typer.Argument(metavar="PROJECT", help="Project file (.xml DBAT script, .txt PM)."),
+        ],
         out: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         control: Annotated[
             Path | None, typer.Option("--control", help="Control/check point table.")
         ] = None,
+        control_columns: Annotated[
+            str | None,
+            typer.Option(
+                "--control-columns",
+                help="Column names of the control table, e.g. id,label,X,Y,Z,sX,sY,sZ.",
+            ),
+        ] = None,
+        image_size: Annotated[
+            str | None,
+            typer.Option("--image-size", help="Image size WIDTHxHEIGHT px (PhotoModeler)."),
+        ] = None,
+        snooping: Annotated[
+            str, typer.Option("--snooping", help="Data snooping test: w (Baarda) or tau (Pope).")
+        ] = "w",
         positions: Annotated[
             Path | None,
             typer.Option("--positions", help="Prior camera positions 'image,X,Y,Z,s' (GNSS)."),
@@ -73,15 +97,17 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from rich.table import Table
 
+        from pyheracles import progress
         from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust
         from pyheracles.bundle.readers import (
             read_camera_positions,
             read_control_points,
             read_project,
         )
-        from pyheracles.bundle.report import write_reports
-        from pyheracles.cli.common import console, output_dir
-        from pyheracles.errors import InputError
+        from pyheracles.bundle.readers.photomodeler import read_photomodeler
+        from pyheracles.bundle.report import write_failure_report, write_reports
+        from pyheracles.cli.common import console, output_dir, print_run_warnings
+        from pyheracles.errors import HeraclesError, InputError
         from pyheracles.provenance import write_run_json
 
         t0 = time.perf_counter()
@@ -90,30 +116,72 @@ def register(app: typer.Typer) -> None:
             names = [s.strip() for s in estimate.split(",") if s.strip()]
             est = () if names in (["none"], []) else tuple(names)
         params = BundleParameters(
-            damping=damping, estimate_io=est, datum=datum, max_iterations=max_iterations
+            damping=damping,
+            estimate_io=est,
+            datum=datum,
+            max_iterations=max_iterations,
+            snooping=snooping,
         )
-        with warnings.catch_warnings(record=True) as caught:
+        size = None
+        if image_size is not None:
+            try:
+                w_px, h_px = (int(v) for v in image_size.lower().split("x"))
+            except ValueError:
+                raise InputError(
+                    f"--image-size '{image_size}' is not WIDTHxHEIGHT (e.g. 6000x4000)"
+                ) from None
+            size = (w_px, h_px)
+        failed: Exception | None = None
+        with warnings.catch_warnings(record=True) as caught, progress.enabled(console):
             warnings.simplefilter("always", BundleWarning)
-            proj = read_project(project)
-            if model is not None:
-                proj = proj.with_model(model)
-            if control is not None:
-                proj = proj.with_control(read_control_points(control))
-            if default_io is not None:
-                proj = proj.with_default_io(default_io)
-            if resect:
-                proj = proj.replace(needs_resection=True)
-            if positions is not None:
-                proj = proj.with_prior_positions(read_camera_positions(positions))
+            with progress.stage(f"reading {project.name}"):
+                if size is not None:
+                    if project.suffix.lower() != ".txt":
+                        raise InputError(
+                            "--image-size is for PhotoModeler text exports only", path=project
+                        )
+                    proj = read_photomodeler(project, image_size_px=size)
+                else:
+                    proj = read_project(project)
+                if model is not None:
+                    proj = proj.with_model(model)
+                if control is not None:
+                    proj = proj.with_control(read_control_points(control, control_columns))
+                if default_io is not None:
+                    proj = proj.with_default_io(default_io)
+                if resect:
+                    proj = proj.replace(needs_resection=True)
+                if positions is not None:
+                    proj = proj.with_prior_positions(read_camera_positions(positions))
             t_read = time.perf_counter() - t0
-            result = bundle_adjust(proj, params)
-        for w in caught:
-            if issubclass(w.category, BundleWarning):
-                console.print(f"[yellow]warning:[/] {w.message}", highlight=False)
+            with progress.stage("bundle adjustment"):
+                try:
+                    result = bundle_adjust(proj, params)
+                except HeraclesError as exc:
+                    if not hasattr(exc, "diagnosis"):
+                        raise
+                    failed = exc
+        notes = [str(w.message) for w in caught if issubclass(w.category, BundleWarning)]
+        if failed is not None:
+            # A failed run still writes its diagnosis, then reports the error.
+            with output_dir(out, force=force) as stage:
+                write_failure_report(failed.diagnosis, stage, proj, str(failed))
+                write_run_json(
+                    stage,
+                    step="bundle",
+                    parameters=params,
+                    inputs=[project, *(f for f in (control, positions) if f)],
+                    timings={"read": t_read},
+                    counts={"images": proj.n_images, "points": proj.n_points},
+                    extra={"failed": True, "error": str(failed), "warnings": notes},
+                )
+                print_run_warnings(stage)
+            raise failed
         if not result.converged:  # pragma: no cover - bundle_adjust raises instead
             raise InputError("bundle adjustment did not converge", path=project)
-        with output_dir(out, force=force) as stage:
-            paths = write_reports(result, stage, plots=not no_plots)
+        with output_dir(out, force=force) as stage, progress.enabled(console):
+            with progress.stage("writing the reports and plots"):
+                paths = write_reports(result, stage, plots=not no_plots)
             timings = {"read": t_read, **result.timings}
             write_run_json(
                 stage,
@@ -126,8 +194,13 @@ def register(app: typer.Typer) -> None:
                     "points": result.project.n_points,
                     "image_observations": result.project.n_observations,
                 },
-                extra={"sigma0": result.sigma0, "redundancy": result.redundancy},
+                extra={
+                    "sigma0": result.sigma0,
+                    "redundancy": result.redundancy,
+                    "warnings": notes,
+                },
             )
+            print_run_warnings(stage)
         table = Table(title=f"bundle: {project.name}", show_header=False)
         table.add_row("sigma0", f"{result.sigma0:.6g}")
         table.add_row("redundancy", f"{result.redundancy:,}")

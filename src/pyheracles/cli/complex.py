@@ -6,7 +6,13 @@ from pathlib import Path
 
 import typer
 
-from pyheracles.cli.common import console, output_dir, print_counts, print_objects
+from pyheracles.cli.common import (
+    console,
+    output_dir,
+    print_counts,
+    print_objects,
+    print_run_warnings,
+)
 
 
 def register(app: typer.Typer) -> None:
@@ -14,7 +20,9 @@ def register(app: typer.Typer) -> None:
 
     @app.command("complex")
     def complex_cmd(
-        cloud: Path = typer.Argument(..., help="Point cloud of the complex (LAS/LAZ/PLY/E57/XYZ)."),
+        cloud: Path = typer.Argument(
+            ..., metavar="CLOUD", help="Point cloud of the complex (LAS/LAZ/PLY/E57/XYZ)."
+        ),
         layer: list[str] = typer.Option(
             ...,
             "--layer",
@@ -39,6 +47,11 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Split a complex into one object per GIS feature, plus ground and remainder.
 
+        Writes into OUT: segmented.laz (every input point in input order, extra
+        dimensions instance and class_id, ground as class 2), objects.gpkg (one row
+        per object with its GIS attributes), run.json; with --per-object one LAZ per
+        object in objects/.
+
         Example:
 
             heracles complex ahn3.laz -l building=bgt_pand.sqlite
@@ -46,21 +59,21 @@ def register(app: typer.Typer) -> None:
         """
         from pyheracles.complex import ComplexParams
         from pyheracles.pipeline import complex_from_files
-        from pyheracles.progress import enabled
+        from pyheracles.progress import enabled, stage
 
         params = ComplexParams(
             buffer_m=buffer, cluster_distance_m=distance, min_cluster_points=min_points,
             ground=ground,
             layer_order=tuple(s.strip() for s in order.split(",")) if order else None,
         )  # fmt: skip
-        with output_dir(out, force=force) as stage, enabled(console):
-            result, paths, timings, _ = complex_from_files(
-                cloud, layer, stage, params=params, reproject=reproject,
-                fix_invalid=fix_invalid, cloud_crs=cloud_crs, per_object=per_object,
-            )  # fmt: skip
-        paths = {k: out / v.relative_to(stage) for k, v in paths.items()}
+        with output_dir(out, force=force) as staging, enabled(console):
+            with stage("step 1: complex -> objects"):
+                result, paths, timings, _ = complex_from_files(
+                    cloud, layer, staging, params=params, reproject=reproject,
+                    fix_invalid=fix_invalid, cloud_crs=cloud_crs, per_object=per_object,
+                )  # fmt: skip
+            print_run_warnings(staging)
+        paths = {k: out / v.relative_to(staging) for k, v in paths.items()}
         seg = result.segmentation
         print_objects(seg.objects, ["instance", "class", "source_fid", "n_points", "height"])
         print_counts(seg.counts(), timings, paths)
-        for w in seg.warnings:
-            console.print(f"[yellow]warning:[/] {w}")

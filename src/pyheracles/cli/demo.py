@@ -8,7 +8,7 @@ from typing import Any
 import pandas as pd
 import typer
 
-from pyheracles.cli.common import console, output_dir, print_counts
+from pyheracles.cli.common import console, output_dir, print_counts, print_run_warnings
 
 
 def register(app: typer.Typer) -> None:
@@ -25,9 +25,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run step 1 on a generated walled complex (like the thesis's Kasepuhan) and score it.
 
-        Writes scene/ (cloud.laz, building/wall/gate GeoPackages, reference),
-        result/ (segmented.laz, objects.gpkg, run.json, evaluation.csv) and
-        overview.png.
+        Writes into OUT: scene/ (the generated inputs: cloud.laz, building/wall/gate
+        GeoPackages, reference), result/ (segmented.laz, objects.gpkg, per-object LAZ,
+        run.json naming the scene/ inputs and the scene's seed, evaluation.csv/.json)
+        and overview.png.
 
         Example:
 
@@ -35,6 +36,7 @@ def register(app: typer.Typer) -> None:
         """
         with output_dir(out, force=force) as stage:
             table, gscore, seg, paths, timings = _run_demo(stage, points, seed)
+            print_run_warnings(stage)
         paths = {k: out / v.relative_to(stage) for k, v in paths.items()}
         _print_scores(table)
         console.print(f"ground: precision {gscore['precision']:.3f}, recall {gscore['recall']:.3f}")
@@ -47,7 +49,7 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
     from pyheracles.evaluate import evaluate_by_feature, ground_scores
     from pyheracles.io.atomic import atomic_path, atomic_write_json
     from pyheracles.pipeline import complex_from_files
-    from pyheracles.progress import enabled
+    from pyheracles.progress import enabled, stage
     from pyheracles.report.overview import plot_complex_overview
     from pyheracles.synthetic.complex_scene import (
         ComplexSceneParams,
@@ -55,14 +57,17 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
         write_scene,
     )
 
-    with console.status("generating the complex ..."):
-        scene = kasepuhan_scene(ComplexSceneParams(n_points=points, seed=seed))
-        files = write_scene(scene, outdir / "scene")
-    specs = [f"{name}={files[name]}" for name in scene.layers]
     with enabled(console):
-        result, paths, timings, _ = complex_from_files(
-            files["cloud"], specs, outdir / "result", params=ComplexParams(), per_object="fid"
-        )
+        with stage("generating the complex"):
+            scene_params = ComplexSceneParams(n_points=points, seed=seed)
+            scene = kasepuhan_scene(scene_params)
+            files = write_scene(scene, outdir / "scene")
+        specs = [f"{name}={files[name]}" for name in scene.layers]
+        with stage("step 1: complex -> objects"):
+            result, paths, timings, _ = complex_from_files(
+                files["cloud"], specs, outdir / "result", params=ComplexParams(), per_object="fid"
+            )
+    _record_scene(paths["run"], scene_params)
     seg = result.segmentation
     ref = scene.reference_objects
     ev = evaluate_by_feature(seg.instance, seg.objects, scene.reference_instance, ref)
@@ -77,6 +82,26 @@ def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
         scene.cloud, seg, scene.layers, outdir / "overview.png", scores=table.iloc[:-2]
     )
     return table, gscore, seg, {**paths, "overview": png}, timings
+
+
+def _record_scene(run_json: Path, scene_params: Any) -> None:
+    """Name the built-in scene (generator and parameters, seed included) in run.json.
+
+    Its input paths point into the staging folder while the demo runs;
+    :func:`~pyheracles.cli.common.output_dir` turns them into the final scene/ paths.
+    """
+    import json
+    from dataclasses import asdict
+
+    from pyheracles.io.atomic import atomic_write_json
+
+    record = json.loads(run_json.read_text(encoding="utf-8"))
+    record["demo_scene"] = {
+        "generator": "pyheracles.synthetic.complex_scene.kasepuhan_scene",
+        "parameters": asdict(scene_params),
+        "inputs_folder": "scene/",
+    }
+    atomic_write_json(run_json, record)
 
 
 def _print_scores(table: pd.DataFrame) -> None:

@@ -102,7 +102,14 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option("--force", help="Write into a non-empty output folder.")
         ] = False,
     ) -> None:
-        from pyheracles.cli.common import console, output_dir, print_counts, print_objects
+        from pyheracles import progress
+        from pyheracles.cli.common import (
+            console,
+            output_dir,
+            print_counts,
+            print_objects,
+            print_run_warnings,
+        )
         from pyheracles.framework import BeamParams, segment_beams
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -115,30 +122,34 @@ def register(app: typer.Typer) -> None:
             min_beam_width_m=min_width_m,
             max_beam_width_m=max_width_m,
         ).validate()
-        with output_dir(outdir, force=force) as stage:
+        with output_dir(outdir, force=force) as stage, progress.enabled(console):
             timings: dict[str, float] = {}
             t = time.perf_counter()
-            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            with progress.stage(f"reading {cloud_path.name}"):
+                cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
-            result = segment_beams(cloud, params)
+            with progress.stage("beams: facets, bands, cuboids"):
+                result = segment_beams(cloud, params)
             timings["beams"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg = result.to_segmentation(cloud.offset)
-            paths = write_segmentation(
-                cloud,
-                seg,
-                stage,
-                step="beams",
-                parameters=result.params,
-                inputs=[cloud_path],
-                timings={**timings, **{f"beams.{k}": v for k, v in result.timings.items()}},
-                extra={"n_beams": len(result.beams)},
-            )
-            if not no_picture:
-                paths["picture"] = plot_beams(cloud.xyz, result, stage / "beams.png")
+            with progress.stage("writing segmented.laz, objects, beams.png"):
+                seg = result.to_segmentation(cloud.offset)
+                paths = write_segmentation(
+                    cloud,
+                    seg,
+                    stage,
+                    step="beams",
+                    parameters=result.params,
+                    inputs=[cloud_path],
+                    timings={**timings, **{f"beams.{k}": v for k, v in result.timings.items()}},
+                    extra={"n_beams": len(result.beams)},
+                )
+                if not no_picture:
+                    paths["picture"] = plot_beams(cloud.xyz, result, stage / "beams.png")
             timings["write"] = time.perf_counter() - t
             counts = seg.counts()
+            print_run_warnings(stage)
         print_objects(
             seg.objects,
             ["instance", "n_points", "inclination_deg", "length_m", "width_m", "height_m", "rms_m"],

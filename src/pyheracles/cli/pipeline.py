@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
-from pyheracles.cli.common import console, output_dir, print_counts
+from pyheracles.cli.common import console, output_dir, print_counts, print_run_warnings
 
 
 def register(app: typer.Typer) -> None:
@@ -14,10 +15,16 @@ def register(app: typer.Typer) -> None:
 
     @app.command("pipeline")
     def pipeline_cmd(
-        config: Path = typer.Argument(..., help="YAML configuration (see the README)."),
+        config: Path = typer.Argument(
+            ..., metavar="CONFIG", help="YAML configuration (see the README)."
+        ),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
     ) -> None:
         """Run the multi-scalar pipeline: complex -> objects -> supports / beams.
+
+        Writes into the configuration's output folder: step 1 (segmented.laz,
+        objects.gpkg, run.json) at the top level and one folder per analysed object
+        in step2/<step>/<name>/ (segmented.laz, objects table, run.json).
 
         Example configuration:
 
@@ -31,18 +38,36 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         from pyheracles.pipeline import load_config, run_pipeline
-        from pyheracles.progress import enabled
+        from pyheracles.progress import enabled, stage
 
         cfg = load_config(config)
-        with output_dir(cfg.output, force=force) as stage, enabled(console):
-            run = run_pipeline(cfg, stage)
+        with output_dir(cfg.output, force=force) as staging, enabled(console):
+            with stage("pipeline: step 1, then step 2 per object"):
+                run = run_pipeline(cfg, staging)
+            statuses = [_status(row, staging) for row in run["step2"]]
+            print_run_warnings(staging)
         table = Table(title="step 2")
         columns = ("instance", "name", "step", "status", "n_objects", "classes")
         for col in columns:
             table.add_column(col)
-        for row in run["step2"]:
-            table.add_row(*[str(row.get(c, "")) for c in columns])
+        for row, status in zip(run["step2"], statuses, strict=True):
+            table.add_row(*[status if c == "status" else str(row.get(c, "")) for c in columns])
         console.print(table)
         seg = run["complex"].segmentation
-        paths = {k: cfg.output / v.relative_to(stage) for k, v in run["paths"].items()}
+        paths = {k: cfg.output / v.relative_to(staging) for k, v in run["paths"].items()}
         print_counts(seg.counts(), run["timings"], paths)
+
+
+def _status(row: dict[str, Any], outdir: Path) -> str:
+    """The real status of one step-2 object: its run.json warnings when it has any."""
+    from pyheracles.cli.common import run_warnings
+    from pyheracles.pipeline import _safe
+
+    status = str(row.get("status", ""))
+    if status != "ok":
+        return status
+    folder = outdir / "step2" / str(row.get("step", "")) / _safe(str(row.get("name", "")))
+    found = run_warnings(folder) if (folder / "run.json").is_file() else []
+    if not found:
+        return status
+    return "; ".join(found) if not row.get("n_objects") else "ok; " + "; ".join(found)

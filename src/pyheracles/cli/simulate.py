@@ -73,17 +73,31 @@ def register(app: typer.Typer) -> None:
 
         from rich.table import Table
 
-        from pyheracles.cli.common import console, output_dir
+        from pyheracles.cli.common import console, output_dir, print_run_warnings
+        from pyheracles.progress import enabled, stage
+        from pyheracles.provenance import write_run_json
         from pyheracles.synthetic.families import family as family_fn
         from pyheracles.synthetic.families import simulate, write_simulation
 
         family_fn(family)  # an unknown family is refused before any work
         kw = parse_overrides(overrides or [])
-        t = time.perf_counter()
-        sim = simulate(family, seed, **kw)
-        t_scan = time.perf_counter() - t
-        with output_dir(outdir, force=force) as stage:
-            written = write_simulation(sim, stage, preview=preview)
+        with output_dir(outdir, force=force) as out, enabled(console):
+            t = time.perf_counter()
+            with stage(f"simulating {family} seed {seed}"):
+                sim = simulate(family, seed, **kw)
+            t_scan = time.perf_counter() - t
+            t = time.perf_counter()
+            with stage("writing"):
+                written = write_simulation(sim, out, preview=preview)
+            write_run_json(
+                out,
+                step="simulate",
+                parameters={"family": family, "seed": seed, "overrides": kw, "drawn": sim.params},
+                timings={"simulate": t_scan, "write": time.perf_counter() - t},
+                counts={name: len(res) for name, res in sim.clouds.items()},
+                extra={"outputs": sorted(p.name for p in written.values())},
+            )
+            print_run_warnings(out)
         table = Table(title=f"heracles simulate: {family} seed {seed}")
         table.add_column("cloud")
         table.add_column("points", justify="right")

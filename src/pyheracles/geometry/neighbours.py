@@ -73,7 +73,7 @@ def _as_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
     if not np.isfinite(arr).all():
         raise InputError(
             "coordinates contain NaN or infinite values",
-            hint="validate the cloud (PointCloud.validate) before computing neighbourhoods",
+            hint="in Python: validate the cloud (PointCloud.validate) before computing neighbours",
         )
     return arr
 

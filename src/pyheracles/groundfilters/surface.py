@@ -491,8 +491,8 @@ def dtm_from_ground(
     if not mask.any():
         raise InputError(
             "no ground point: a terrain model needs ground",
-            hint="use method='none' for clouds without ground (building interiors) "
-            "or check the ground filter parameters",
+            hint="use --ground none (heracles complex) for clouds without ground (building "
+            "interiors) or check the ground filter parameters",
         )
     if sampler is not None and sampler.grid.cell_m == cell_m:
         grid, flat = sampler.grid, sampler.flat[mask]

@@ -22,6 +22,7 @@ __all__ = [
     "atomic_path",
     "atomic_write_json",
     "atomic_write_text",
+    "check_cloud_path",
     "read_cloud",
     "read_layer",
     "validate_polygons",
@@ -36,6 +37,31 @@ def _suffix(path: Path) -> str:
     return path.suffix.lower()
 
 
+def check_cloud_path(path: str | Path) -> Path:
+    """The path as a :class:`~pathlib.Path` if it names an existing file.
+
+    Raises
+    ------
+    InputError
+        ``file not found``, or ``is a folder, not a point cloud file`` (with the
+        point cloud files found inside it as a hint).
+    """
+    p = Path(path)
+    if p.is_dir():
+        inside = sorted(
+            c.name for c in p.iterdir() if c.is_file() and c.name.lower().endswith(CLOUD_SUFFIXES)
+        )
+        hint = (
+            f"give one file inside it, e.g. {p / inside[0]} ({len(inside)} point cloud files there)"
+            if inside
+            else "give the path of a point cloud file (" + ", ".join(CLOUD_SUFFIXES) + ")"
+        )
+        raise InputError("is a folder, not a point cloud file", path=p, hint=hint)
+    if not p.is_file():
+        raise InputError("file not found", path=p, hint="check the path")
+    return p
+
+
 def read_cloud(path: str | Path) -> PointCloud:
     """Read a point cloud, the format chosen from the extension.
 
@@ -45,9 +71,12 @@ def read_cloud(path: str | Path) -> PointCloud:
     Raises
     ------
     InputError
-        Unknown extension, missing, unreadable or truncated file.
+        Unknown extension, missing, unreadable or truncated file, a folder, NaN or
+        infinite coordinates (one error naming the file and counting the points).
     """
     p = Path(path)
+    if p.is_dir():
+        check_cloud_path(p)
     suffix = _suffix(p)
     if suffix in (".las", ".laz"):
         from pyheracles.io.las import read_las
@@ -73,15 +102,24 @@ def read_cloud(path: str | Path) -> PointCloud:
 
 
 def write_cloud(
-    cloud: PointCloud, path: str | Path, extra_dims: Mapping[str, NDArray[Any]] | None = None
+    cloud: PointCloud,
+    path: str | Path,
+    extra_dims: Mapping[str, NDArray[Any]] | None = None,
+    *,
+    notes: list[str] | None = None,
 ) -> Path:
-    """Write a cloud atomically, the format chosen from the extension (LAS/LAZ, PLY, text)."""
+    """Write a cloud atomically, the format chosen from the extension (LAS/LAZ, PLY, text).
+
+    LAS/LAZ keep every dimension of the source file (see
+    :func:`pyheracles.io.las.write_las`); what the writer had to change (a point
+    format upgrade, COPC written as plain LAZ) is appended to ``notes``.
+    """
     p = Path(path)
     suffix = _suffix(p)
     if suffix in (".las", ".laz"):
         from pyheracles.io.las import write_las
 
-        return write_las(cloud, p, extra_dims)
+        return write_las(cloud, p, extra_dims, notes=notes)
     if suffix == ".ply":
         from pyheracles.io.ply import write_ply
 

@@ -35,19 +35,34 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     'hello'
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(
-        prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent
-    )
-    os.close(fd)
-    tmp = Path(name)
-    tmp.unlink()  # writers that refuse to overwrite (GDAL) get a free name
+    tmp: Path | None = None
     try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(
+            prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent
+        )
+        os.close(fd)
+        tmp = Path(name)
+        tmp.unlink()  # writers that refuse to overwrite (GDAL) get a free name
         yield tmp
         os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
+    except OSError as exc:  # name the target, not the hidden temporary file
+        _remove(tmp)
+        ours = exc.filename is None or (tmp is not None and exc.filename == str(tmp))
+        if exc.errno is not None and ours:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
         raise
+    except BaseException:  # KeyboardInterrupt too: never leave a partial file behind
+        _remove(tmp)
+        raise
+
+
+def _remove(tmp: Path | None) -> None:
+    if tmp is not None:
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # pragma: no cover - the folder itself became unwritable
+            pass
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:

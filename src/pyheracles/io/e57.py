@@ -18,10 +18,14 @@ __all__ = ["read_e57"]
 
 
 def read_e57(path: str | Path) -> PointCloud:
-    """Read every scan of an E57 file, transformed into the file's frame."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError("file not found", path=p, hint="check the path")
+    """Read every scan of an E57 file, transformed into the file's frame.
+
+    Raises :class:`InputError` on a folder, a missing or damaged file, or NaN /
+    infinite points (one error naming the file and counting them).
+    """
+    from pyheracles.io import check_cloud_path
+
+    p = check_cloud_path(path)
     try:
         import pye57
     except ImportError as exc:  # optional dependency

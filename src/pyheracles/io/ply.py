@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.cloud import PointCloud
+from pyheracles.cloud import PointCloud, reject_non_finite
 from pyheracles.errors import InputError
 from pyheracles.io.atomic import atomic_path
 
@@ -60,11 +60,12 @@ def read_ply(path: str | Path) -> PointCloud:
     """Read the vertices of a PLY file (x, y, z plus every other scalar property).
 
     Elements after ``vertex`` (faces) are ignored; elements before it must be
-    scalar-only.  Raises :class:`InputError` on a damaged or truncated file.
+    scalar-only.  Raises :class:`InputError` on a folder, a damaged or truncated
+    file, or NaN / infinite vertices (one error naming the file and counting them).
     """
-    p = Path(path)
-    if not p.is_file():
-        raise InputError("file not found", path=p, hint="check the path")
+    from pyheracles.io import check_cloud_path
+
+    p = check_cloud_path(path)
     raw = p.read_bytes()
     fmt, elements, pos = _parse_header(raw, p)
     vertex = None
@@ -113,6 +114,7 @@ def write_ply(
     cloud: PointCloud, path: str | Path, extra_dims: dict[str, NDArray[Any]] | None = None
 ) -> Path:
     """Write a binary little-endian PLY with world coordinates (float64) and attributes."""
+    reject_non_finite(cloud.xyz, cloud.source)
     attrs = dict(cloud.attributes)
     attrs.update(extra_dims or {})
     world = cloud.world_xyz()
@@ -122,11 +124,14 @@ def write_ply(
         arr = np.asarray(values)
         if arr.dtype == np.bool_:
             arr = arr.astype(np.uint8)
-        if arr.dtype.kind not in "iuf" or arr.ndim != 1:
+        if arr.dtype.kind not in "iuf" or arr.ndim not in (1, 2):
             continue
         if arr.dtype.itemsize == 8 and arr.dtype.kind in "iu":
             arr = arr.astype(np.float64)
-        fields.append((name, arr))
+        if arr.ndim == 1:
+            fields.append((name, arr))
+        else:  # several values per point (LAS array extra bytes): one property each
+            fields.extend((f"{name}_{i}", arr[:, i]) for i in range(arr.shape[1]))
     dtype = np.dtype([(n, "<" + a.dtype.str[1:]) for n, a in fields])
     table = np.empty(len(cloud), dtype=dtype)
     for n, a in fields:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -14,13 +15,17 @@ import pandas as pd
 from pyheracles.cloud import PointCloud
 from pyheracles.io import write_cloud
 from pyheracles.io.atomic import atomic_path
-from pyheracles.labels import Segmentation
+from pyheracles.io.vector import write_gpkg
+from pyheracles.labels import (
+    ASPRS_GROUND,
+    ASPRS_UNCLASSIFIED,
+    Segmentation,
+    asprs_class,
+    asprs_classification,
+)
 from pyheracles.provenance import write_run_json
 
-__all__ = ["write_objects_table", "write_segmentation"]
-
-ASPRS_GROUND = 2
-ASPRS_UNCLASSIFIED = 1
+__all__ = ["ASPRS_GROUND", "ASPRS_UNCLASSIFIED", "write_objects_table", "write_segmentation"]
 
 
 def _safe_name(value: Any) -> str:
@@ -28,24 +33,34 @@ def _safe_name(value: Any) -> str:
     return text or "object"
 
 
+def _missing(value: Any) -> bool:
+    try:
+        return bool(pd.isna(value))
+    except (TypeError, ValueError):  # arrays, lists: a value
+        return False
+
+
+def _object_file_name(row: pd.Series, column: str) -> str:
+    """``<value>`` of ``column``; ``<class>_<instance>`` when the object has no value.
+
+    A whole-number float (an integer attribute that went through a float column)
+    is written without its ``.0``.
+    """
+    value = row[column]
+    if _missing(value):
+        return f"{_safe_name(row.get('class', 'object'))}_{int(row['instance'])}"
+    if isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value = int(value)
+    return _safe_name(value)
+
+
 def write_objects_table(objects: pd.DataFrame, outdir: Path, crs: Any) -> Path:
-    """``objects.gpkg`` when the table has footprints and a CRS, else ``objects.csv``."""
+    """``objects.gpkg`` (GeoPackage 1.2) when the table has footprints and a CRS, else
+    ``objects.csv``; attribute types are kept (nullable integers stay integer fields)."""
     if isinstance(objects, gpd.GeoDataFrame) and objects.crs is None and crs is not None:
         objects = objects.set_crs(crs)
     if isinstance(objects, gpd.GeoDataFrame) and objects.crs is not None and len(objects):
-        path = outdir / "objects.gpkg"
-        table = objects.copy()
-        for col in table.columns:  # GPKG has no unsigned 64-bit / object-of-mixed types
-            if col != table.geometry.name and table[col].dtype == object:
-                table[col] = table[col].astype("string")
-        with atomic_path(path) as tmp:
-            # "fid" is the GeoPackage primary key's default name; GIS layers often
-            # carry an attribute of that name, so the key is called ogc_fid.
-            table.to_file(
-                tmp, driver="GPKG", layer="objects", engine="pyogrio",
-                layer_options={"FID": "ogc_fid"},
-            )  # fmt: skip
-        return path
+        return write_gpkg(objects, outdir / "objects.gpkg", "objects")
     path = outdir / "objects.csv"
     table = pd.DataFrame(objects).drop(columns=["geometry"], errors="ignore")
     if isinstance(objects, gpd.GeoDataFrame) and len(objects):
@@ -73,33 +88,36 @@ def write_segmentation(
     Files
     -----
     ``segmented.laz``
-        Every input point in input order; extra dimensions ``instance`` (int32)
-        and ``class_id`` (uint8); ASPRS classification 2 for ground, 1 for the
-        rest; the input's own classification kept as ``source_class``.
+        Every input point in input order with every input dimension (the
+        source's point format, upgraded to LAS 1.4 formats 6-10 when it cannot
+        hold the class codes); extra dimensions ``instance`` (int32) and
+        ``class_id`` (uint8); ASPRS classification 2 for ground, the class's
+        code for objects (:data:`pyheracles.labels.ASPRS_CLASSES`: building 6,
+        wall 64, gate 65 ...), 1 for the rest; the input's own classification
+        kept as ``source_class``.
     ``objects.gpkg`` / ``objects.csv``
-        The objects table (GeoPackage when it has footprints and a CRS).
+        The objects table (GeoPackage 1.2 when it has footprints and a CRS).
     ``objects/<name>.laz``
         With ``per_object``: one cloud per object, named after that column of
-        the objects table (``instance`` if in doubt).
+        the objects table (``instance`` if in doubt); objects without a value
+        are named ``<class>_<instance>``.
     ``run.json``
         Provenance, parameters, timings and the conservation balance.
     """
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
     counts = seg.check_balance()
-    extra_dims: dict[str, np.ndarray] = {"instance": seg.instance, "class_id": seg.class_id}
+    labels: dict[str, np.ndarray] = {"instance": seg.instance, "class_id": seg.class_id}
     attrs = dict(cloud.attributes)
     if "classification" in attrs:
-        extra_dims["source_class"] = np.asarray(attrs["classification"]).astype(np.uint8)
-    classification = np.full(len(cloud), ASPRS_UNCLASSIFIED, dtype=np.uint8)
-    if seg.ground is not None:
-        classification[seg.ground] = ASPRS_GROUND
-    attrs["classification"] = classification
-    out_cloud = PointCloud(
-        xyz=cloud.xyz, offset=cloud.offset, attributes=attrs, crs=cloud.crs,
-        scale=cloud.scale, source=cloud.source,
-    )  # fmt: skip
-    paths: dict[str, Path] = {"cloud": write_cloud(out_cloud, out / cloud_name, extra_dims)}
+        labels["source_class"] = np.asarray(attrs["classification"]).astype(np.uint8)
+    attrs["classification"] = asprs_classification(seg)
+    # replace() keeps the source's LAS header: every input dimension is written back
+    out_cloud = replace(cloud, attributes=attrs)
+    notes: list[str] = []
+    paths: dict[str, Path] = {
+        "cloud": write_cloud(out_cloud, out / cloud_name, labels, notes=notes)
+    }
     paths["objects"] = write_objects_table(seg.objects, out, cloud.crs)
     if per_object is not None and len(seg.objects):
         if per_object not in seg.objects.columns:
@@ -115,16 +133,20 @@ def write_segmentation(
         used: set[str] = set()
         for (_, row), start in zip(seg.objects.iterrows(), bounds, strict=True):
             idx = order[start : start + int(row["n_points"])]
-            name = _safe_name(row[per_object])
+            name = _object_file_name(row, per_object)
             if name in used:
                 name = f"{name}_{int(row['instance'])}"
             used.add(name)
             write_cloud(out_cloud.subset(idx), obj_dir / f"{name}.laz",
-                        {"instance": seg.instance[idx], "class_id": seg.class_id[idx]})  # fmt: skip
+                        {k: v[idx] for k, v in labels.items()}, notes=notes)  # fmt: skip
         paths["objects_dir"] = obj_dir
+    asprs = {str(name): asprs_class(name) for name in seg.classes.values()}
     paths["run"] = write_run_json(
         out, step=step, parameters=parameters, inputs=inputs, timings=timings, counts=counts,
         extra={"classes": {str(k): v for k, v in seg.classes.items()},
-               "warnings": list(seg.warnings), **dict(extra or {})},
+               "asprs_classes": {"ground": ASPRS_GROUND, "remainder": ASPRS_UNCLASSIFIED,
+                                 **asprs},
+               "warnings": list(seg.warnings) + list(dict.fromkeys(notes)),
+               **dict(extra or {})},
     )  # fmt: skip
     return paths

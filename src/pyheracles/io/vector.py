@@ -18,9 +18,13 @@ from pyproj import CRS
 
 from pyheracles.errors import CRSMismatchError, DegenerateGeometryError, InputError
 
-__all__ = ["align_crs", "read_layer", "validate_polygons"]
+__all__ = ["GPKG_VERSION", "align_crs", "read_layer", "validate_polygons", "write_gpkg"]
 
 _POLYGONAL = {"Polygon", "MultiPolygon"}
+
+GPKG_VERSION = "1.2"
+"""GeoPackage version written: 1.2 is read by every GDAL >= 2.2 without a warning (GDAL
+3.6 warns about the 1.4 files newer GDAL writes by default)."""
 
 
 def read_layer(path: str | Path, layer: str | int | None = None) -> gpd.GeoDataFrame:
@@ -184,3 +188,26 @@ def align_crs(
     out = gdf.to_crs(cloud)
     out.attrs.update(gdf.attrs)
     return out
+
+
+def write_gpkg(gdf: gpd.GeoDataFrame, path: str | Path, layer: str) -> Path:
+    """Write one layer as a GeoPackage 1.2 file, atomically.
+
+    Columns of Python objects become text (GeoPackage has no mixed-type field);
+    pandas' nullable integer / boolean columns stay integer / boolean fields.  The
+    primary key is called ``ogc_fid`` because GIS layers often carry an attribute
+    named ``fid`` (GeoPackage's default key name).
+    """
+    from pyheracles.io.atomic import atomic_path
+
+    table = gdf.copy()
+    for col in table.columns:
+        if col != table.geometry.name and table[col].dtype == object:
+            table[col] = table[col].astype("string")
+    p = Path(path)
+    with atomic_path(p) as tmp:
+        table.to_file(
+            tmp, driver="GPKG", layer=layer, engine="pyogrio",
+            layer_options={"FID": "ogc_fid"}, dataset_options={"VERSION": GPKG_VERSION},
+        )  # fmt: skip
+    return p

@@ -210,7 +210,7 @@ def measure_plane_corner(
     if len(idx) < 30:
         raise DegenerateGeometryError(
             f"only {len(idx)} points within {search_m} m of {np.round(a, 3).tolist()}",
-            hint="check the approximate position or increase search_m",
+            hint="check the approximate position (in Python: increase search_m)",
         )
     pts = xyz[idx]
     planes, _ = _plane_corner_from_points(pts, threshold_m, gen)

@@ -509,7 +509,7 @@ def region_growing(
     if len(arr) < max(p.k, 4):
         raise InputError(
             f"region growing needs at least {max(p.k, 4)} points, got {len(arr)}",
-            hint="lower k or give a larger cloud",
+            hint="lower --k (heracles beams) or give a larger cloud",
         )
     if p.level == "point":
         return _point_level(arr, p, tree)

@@ -9,13 +9,17 @@ courtyard, a row of rooms sharing party walls, trees whose crowns overhang
 roofs and walls, and street furniture, all on uneven ground (a slope plus
 smooth hills, about 4 m of relief).
 
-Points are sampled on the surfaces as a drone or aerial survey sees them:
-horizontal and sloped surfaces at full density, vertical surfaces (facades,
-both faces of the walls, columns) at a lower density, surfaces hidden under
-roofs removed by a nadir z-buffer, tree crowns semi-transparent, water (a
-pond) without returns.  The GIS layers ``building``, ``wall`` and ``gate`` are
-"roughly digitised": every outline is shifted by 0.1-0.3 m, its vertices
-jittered by a few centimetres and simplified, as if drawn on an orthophoto.
+The layout is built as labelled surfaces
+(:class:`~pyheracles.synthetic.scene.Scene`) and scanned through the one scan
+simulator by an airborne LiDAR survey (:data:`KASEPUHAN_SURVEY`): roofs and
+open ground at full density, facades and wall faces as the scan angle
+shows them, nothing under closed roofs, several returns per pulse in the tree
+crowns (porous foliage, with ground below them), no returns from the pond.
+This makes the demo the ``layout="kasepuhan"`` member of the ``complex``
+scene family (:mod:`pyheracles.synthetic.families.complex`).  The GIS layers
+``building``, ``wall`` and ``gate`` are "roughly digitised": every outline is
+shifted by 0.1-0.3 m, its vertices jittered by a few centimetres and
+simplified, as if drawn on an orthophoto.
 
 Known layout facts that the tests rely on:
 
@@ -28,16 +32,15 @@ Known layout facts that the tests rely on:
 * Internal walls abut the perimeter wall and the gates (touching polygons).
 
 Scaling: the layout is fixed (about 140 m x 200 m); ``n_points`` only sets the
-density, so ``n_points=10_000_000`` is the same complex at about 360 points
-per m^2 (a dense drone survey).  Sampling is vectorised (area-weighted
-triangle sampling, a raster z-buffer for occlusion); no Python loop runs over
-points.
+density (the strips are flown for it and the tile thinned to the exact
+count), so ``n_points=10_000_000`` is the same complex at about 360 points
+per m^2 (a dense drone survey).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -53,20 +56,36 @@ from shapely.ops import unary_union
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
+from pyheracles.synthetic.families.complex_build import add_crown, add_terrain, plan_strips
+from pyheracles.synthetic.families.simulation import Simulation
+from pyheracles.synthetic.scanner import ScanResult, scan
+from pyheracles.synthetic.scene import METAL, PLASTER, STONE, TIMBER, Scene
 
-__all__ = ["ComplexScene", "ComplexSceneParams", "kasepuhan_scene", "write_scene"]
+__all__ = [
+    "KASEPUHAN_SURVEY",
+    "ComplexScene",
+    "ComplexSceneParams",
+    "kasepuhan_scene",
+    "kasepuhan_simulation",
+    "write_scene",
+]
 
 #: Layers of the GIS, in instance-numbering order.
 LAYERS = ("building", "wall", "gate")
 
-# Surface kinds (internal; used for sampling weights and occlusion rules).
+# Surface kinds of the internal mesh (turned into part names and materials of the Scene).
 _GROUND, _ROOF, _FACADE, _WALL, _GATE, _COLUMN, _FLOOR, _TREE, _CLUTTER = range(1, 10)
-#: Kinds whose upward-facing triangles hide what lies below them (nadir z-buffer).
-_OPAQUE = (_ROOF, _WALL, _GATE, _FLOOR, _CLUTTER)
 
 _EXTENT_M = (140.0, 200.0)  # survey extent (local x, y), metres
-_ZBUF_CELL_M = 0.25  # z-buffer cell, metres
-_ZBUF_TOL_M = 0.15  # a surface hides another when it is this much higher in the cell
+#: The airborne survey of the demo (its density set by ``n_points``): two strips flown
+#: 8 deg north of east with 50 % side overlap and a +-30 deg scan, about 315 m above the
+#: ground, so every point is seen from two sides; walls running east-west show both faces,
+#: walls running north-south mostly their tops.  (8 deg, not 0: the scan lines of a
+#: flight exactly parallel to a wall meet it at the same angles on every line.)
+KASEPUHAN_SURVEY: dict[str, Any] = {
+    "n_strips": 2, "overlap": 0.5, "heading_deg": 8.0, "half_fov_deg": 30.0,
+}  # fmt: skip
+_SURVEY = KASEPUHAN_SURVEY
 _BURY_M = 0.3  # foundations reach this far below the lowest ground under a footprint
 
 
@@ -80,17 +99,16 @@ class ComplexSceneParams:
         Exact number of points in the cloud.  The layout is fixed, so this sets
         the density (400 000 points give about 14 points per m^2).
     noise_m
-        Standard deviation of the Gaussian noise added to each coordinate, metres.
+        Standard deviation of the range noise (along the laser beam), metres.
     seed
-        Seed of the random generator (sampling, noise, digitising errors).
-    facade_weight
-        Density of vertical surfaces relative to horizontal ones (oblique views
-        of a drone survey see facades and both faces of walls, less densely).
-    column_weight
-        Extra factor on the density of pavilion columns (partly hidden under
-        the eaves).
+        Seed of the random generator (trees, clutter, digitising errors, scan).
+    facade_weight, column_weight
+        No longer used (still validated, so that old calls run): the airborne
+        scan decides how densely facades and columns are seen (scan angle,
+        occlusion under the eaves).
     crown_penetration
-        Fraction of the points below a tree crown that are still measured.
+        Share of the pulses through a tree crown that reach what lies below
+        (sets the share of opaque twigs among the leaves).
     digitising_offset_m
         Range of the shift of each digitised outline, metres (orthophoto
         misregistration plus drawing error).
@@ -173,38 +191,6 @@ def ground_height(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.
     for hx, hy, amp, sig in _HILLS:
         z = z + amp * np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * sig * sig))
     return z
-
-
-class _HeightGrid:
-    """:func:`ground_height` tabulated on a 0.25 m grid, read by bilinear interpolation.
-
-    Hand-written because it is four gathers: about 5x faster than evaluating the
-    hills for millions of points, and within 0.1 mm of the analytic surface
-    (the hills are smooth at this scale).
-    """
-
-    cell = 0.25
-
-    def __init__(self) -> None:
-        self.nx = int(_EXTENT_M[0] / self.cell) + 2
-        self.ny = int(_EXTENT_M[1] / self.cell) + 2
-        gx = np.arange(self.nx) * self.cell
-        gy = np.arange(self.ny) * self.cell
-        self.z = ground_height(gx[None, :], gy[:, None]).ravel()
-
-    def __call__(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Heights at points inside the survey extent."""
-        fx = np.clip(x / self.cell, 0.0, self.nx - 1.000001)
-        fy = np.clip(y / self.cell, 0.0, self.ny - 1.000001)
-        ix = fx.astype(np.intp)
-        iy = fy.astype(np.intp)
-        fx -= ix
-        fy -= iy
-        i = iy * self.nx + ix
-        z = self.z
-        bottom = z[i] + fx * (z[i + 1] - z[i])
-        top = z[i + self.nx] + fx * (z[i + self.nx + 1] - z[i + self.nx])
-        return bottom + fy * (top - bottom)
 
 
 # ----------------------------------------------------------------------------- meshes
@@ -489,7 +475,7 @@ _BUILDINGS: tuple[_Building, ...] = (
               (_p(132.0, 55.0, 146.0, 67.0, 3.4),)),
     # demolished, still in the GIS; today a pond (no returns)
     _Building("B20", "Bangsal Kaputren", "residence (demolished)", "17th c.", "demolished",
-              (_p(96.0, 158.0, 108.0, 166.0, 3.0),)),
+              (_p(97.5, 158.0, 109.5, 166.0, 3.0),)),
 )
 # fmt: on
 
@@ -573,79 +559,6 @@ _TREES_FIXED = np.array(
         [110.0, 85.0, 3.0, 3.0],  # over the round pavilion B18
     ]
 )
-
-
-# ----------------------------------------------------------------------------- sampling
-def _tri_props(tris: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Area and |n_z| of each triangle."""
-    cross = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    norm = np.linalg.norm(cross, axis=1)
-    area = 0.5 * norm
-    nz = np.abs(cross[:, 2]) / np.where(norm > 0, norm, 1.0)
-    return area, nz
-
-
-def _sample_triangles(
-    tris: NDArray[np.float64], idx: NDArray[np.intp], rng: np.random.Generator
-) -> NDArray[np.float64]:
-    """Uniform points in the triangles ``tris[idx]`` (one point per index)."""
-    out = np.empty((len(idx), 3))
-    chunk = 2_000_000  # bounded temporaries for large scenes
-    for s in range(0, len(idx), chunk):  # loop over chunks of points, each vectorised
-        t = tris[idx[s : s + chunk]]
-        u = rng.random((len(t), 2))
-        flip = u.sum(axis=1) > 1.0
-        u[flip] = 1.0 - u[flip]
-        out[s : s + chunk] = (
-            t[:, 0] + u[:, :1] * (t[:, 1] - t[:, 0]) + u[:, 1:] * (t[:, 2] - t[:, 0])
-        )
-    return out
-
-
-class _Raster:
-    """A grid over the survey extent used as a nadir z-buffer."""
-
-    def __init__(self, cell: float) -> None:
-        self.cell = cell
-        self.nx = math.ceil(_EXTENT_M[0] / cell)
-        self.ny = math.ceil(_EXTENT_M[1] / cell)
-
-    def index(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.intp]:
-        ix = np.clip((x / self.cell).astype(np.intp), 0, self.nx - 1)
-        iy = np.clip((y / self.cell).astype(np.intp), 0, self.ny - 1)
-        return iy * self.nx + ix
-
-
-def _top_surface(
-    raster: _Raster, xyz: NDArray[np.float64], group: NDArray[np.int32]
-) -> tuple[NDArray[np.float64], NDArray[np.int32]]:
-    """Highest z per cell and the occlusion group it belongs to (-inf / 0 where empty)."""
-    cells = raster.index(xyz[:, 0], xyz[:, 1])
-    order = np.lexsort((xyz[:, 2], cells))
-    cs = cells[order]
-    last = np.flatnonzero(np.r_[cs[1:] != cs[:-1], True])
-    top_z = np.full(raster.nx * raster.ny, -np.inf)
-    top_g = np.zeros(raster.nx * raster.ny, np.int32)
-    top_z[cs[last]] = xyz[order[last], 2]
-    top_g[cs[last]] = group[order[last]]
-    return top_z, top_g
-
-
-def _crown_top(raster: _Raster, crowns: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Top height of the tree crowns per cell (-inf where no crown)."""
-    top = np.full((raster.ny, raster.nx), -np.inf)
-    c = raster.cell
-    for cx, cy, cz, r, rz in crowns:  # a few dozen trees, each a vectorised window
-        i0, i1 = max(0, int((cx - r) / c)), min(raster.nx, int((cx + r) / c) + 1)
-        j0, j1 = max(0, int((cy - r) / c)), min(raster.ny, int((cy + r) / c) + 1)
-        if i0 >= i1 or j0 >= j1:
-            continue
-        gx = (np.arange(i0, i1) + 0.5) * c
-        gy = (np.arange(j0, j1) + 0.5) * c
-        d2 = ((gx[None, :] - cx) ** 2 + (gy[:, None] - cy) ** 2) / (r * r)
-        z = np.where(d2 < 1.0, cz + rz * np.sqrt(np.clip(1.0 - d2, 0.0, None)), -np.inf)
-        top[j0:j1, i0:i1] = np.maximum(top[j0:j1, i0:i1], z)
-    return top.ravel()
 
 
 # ----------------------------------------------------------------------------- scene
@@ -863,6 +776,11 @@ def _digitise(
 
 
 def _validate(params: ComplexSceneParams) -> None:
+    seed = params.seed
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InputError(
+            f"seed must be a whole number >= 0, got {params.seed!r}", hint="e.g. --seed 0"
+        )
     if params.n_points < 1000:
         raise InputError(f"n_points must be at least 1000, got {params.n_points}")
     if not (params.noise_m >= 0 and np.isfinite(params.noise_m)):
@@ -873,8 +791,174 @@ def _validate(params: ComplexSceneParams) -> None:
             raise InputError(f"{name} must be in [0, 1], got {v}")
 
 
+#: Part name, material and class (for owner 0) of each surface kind.
+_KIND_REF = {
+    _ROOF: ("roof", TIMBER),
+    _FACADE: ("facade", PLASTER),
+    _WALL: ("wall", STONE),
+    _GATE: ("gate", STONE),
+    _COLUMN: ("column", TIMBER),
+    _FLOOR: ("platform", STONE),
+    _TREE: ("trunk", TIMBER),
+    _CLUTTER: ("clutter", METAL),
+}
+
+
+def _to_scene(
+    mesh: _Mesh,
+    layer_of: dict[int, str],
+    crowns: NDArray[np.float64],
+    pond: Any,
+    params: ComplexSceneParams,
+    rng: np.random.Generator,
+) -> Scene:
+    """The mesh as a labelled :class:`Scene`: terrain (a hole for the pond), objects, trees."""
+    scene = Scene()
+    for name in ("ground", *LAYERS, "tree", "clutter"):
+        scene.class_code(name)
+    add_terrain(scene, ground_height, (0.0, 0.0, *_EXTENT_M), cell_m=1.0, holes=pond)
+    tris, owner, kind, _group = mesh.arrays()
+    for o in np.unique(owner):  # a few dozen owners, each with a handful of kinds
+        for k in np.unique(kind[owner == o]):
+            sel = (owner == o) & (kind == k)
+            part, material = _KIND_REF[int(k)]
+            if o > 0:
+                cls = layer_of[int(o)]
+            else:
+                cls = "tree" if k == _TREE else "clutter"
+            scene.add_triangles(
+                tris[sel], instance=int(o), class_name=cls, part=part, material=material
+            )
+    for cx, cy, cz, r, rz in crowns:
+        add_crown(scene, (cx, cy, cz), r, rz, rng, penetration=params.crown_penetration)
+    return scene
+
+
+def _survey(
+    scene: Scene, params: ComplexSceneParams, rng: np.random.Generator
+) -> tuple[ScanResult, dict[str, Any]]:
+    """Airborne strips over the extent; exactly ``params.n_points`` points of the tile.
+
+    The strips are flown for slightly more first returns than points wanted
+    (the multiple returns in the crowns add more) and the tile is thinned at
+    random to the exact count (the points keep their acquisition order).
+    """
+    bounds = (0.0, 0.0, *_EXTENT_M)
+    x1, y1 = _EXTENT_M
+
+    def fly(density: float) -> tuple[ScanResult, dict[str, Any]]:
+        sv, plan = plan_strips(bounds, noise_m=params.noise_m, density_per_m2=density,
+                               **_SURVEY)  # fmt: skip
+        res = scan(scene, sv, rng=rng)
+        x, y = res.xyz[:, 0], res.xyz[:, 1]
+        return res.subset((x >= 0) & (x < x1) & (y >= 0) & (y < y1)), plan
+
+    density = 1.02 * params.n_points / (x1 * y1)
+    for _attempt in range(4):  # flies again, denser, in the unlikely case it fell short
+        res, plan = fly(density)
+        if len(res) >= params.n_points:
+            break
+        density *= 1.05 * params.n_points / max(len(res), 1)
+    else:  # pragma: no cover - the first flight gives a few per cent more points
+        raise RuntimeError("could not fly enough points")
+    keep = np.zeros(len(res), bool)
+    keep[rng.choice(len(res), params.n_points, replace=False)] = True
+    plan = {**plan, "flown_density_per_m2": density, "points_flown": len(res)}
+    return res.subset(keep), plan
+
+
+def _kasepuhan_world(params: ComplexSceneParams) -> tuple[NDArray[np.float64], pyproj.CRS]:
+    offset = np.array(
+        [
+            params.origin_en[0] - _EXTENT_M[0] / 2,
+            params.origin_en[1] - _EXTENT_M[1] / 2,
+            params.base_height_m,
+        ]
+    )
+    return offset, pyproj.CRS("EPSG:32749")
+
+
+def kasepuhan_simulation(params: ComplexSceneParams | None = None) -> Simulation:
+    """The demo complex as a member of the ``complex`` scene family.
+
+    Builds the fixed layout as labelled surfaces and scans them with the
+    airborne simulator (:data:`KASEPUHAN_SURVEY`); see :func:`kasepuhan_scene`
+    for what the layout holds.  ``draw(seed, layout="kasepuhan")`` of
+    :mod:`pyheracles.synthetic.families.complex` returns this.
+
+    Returns
+    -------
+    Simulation
+        Family ``complex``, the seed of ``params``, one cloud ``"cloud"`` of
+        exactly ``params.n_points`` points (local frame; EPSG:32749 with
+        ``sim.offset``) and ``extras`` as the family's (``layers``,
+        ``reference_objects``, ``extent``, ``write_extras``).
+    """
+    from pyheracles.synthetic.families.complex import write_layers
+
+    params = params or ComplexSceneParams()
+    _validate(params)
+    rng = np.random.default_rng(params.seed)
+
+    # instance numbering: building, wall, gate features in layer order
+    layer_fids = {
+        "building": [b.fid for b in _BUILDINGS],
+        "wall": [w.fid for w in _WALLS],
+        "gate": [g.fid for g in _GATES],
+    }
+    fids = [fid for name in LAYERS for fid in layer_fids[name]]
+    owner_of = {fid: i + 1 for i, fid in enumerate(fids)}
+    layer_of = {owner_of[fid]: name for name in LAYERS for fid in layer_fids[name]}
+
+    mesh = _Mesh()
+    fp = _build_buildings(mesh, owner_of, rng)
+    fp.update(_build_walls(mesh, owner_of))
+    fp.update(_build_gates(mesh, owner_of))
+    # trees and clutter keep off the pond where the demolished B20 stood (water: no returns)
+    obstacles = unary_union([*fp.values(), fp["B20"].buffer(4.5)])
+    crowns = _place_trees(rng, obstacles)
+    _build_trunks(mesh, crowns)
+    _build_clutter(mesh, rng, obstacles)
+    digitised = _digitise(fp, params, rng)
+    pond = digitised["B20"].buffer(1.0)
+    scene = _to_scene(mesh, layer_of, crowns, pond, params, rng)
+    res, plan = _survey(scene, params, rng)
+
+    offset, crs = _kasepuhan_world(params)
+    layers, objects = _layers(digitised, offset[:2], crs, owner_of, res.instance)
+    for name, inst in owner_of.items():
+        scene.objects.append(
+            {
+                "instance": inst,
+                "class": layer_of[inst],
+                "fid": name,
+                "footprint": shapely.to_wkt(fp[name], rounding_precision=3),
+            }
+        )
+    extent = affinity.translate(box(0, 0, *_EXTENT_M), offset[0], offset[1])
+    extras = {
+        "layers": layers,
+        "reference_objects": objects,
+        "extent": extent,
+        "survey": plan,
+        "write_extras": lambda outdir: write_layers(layers, objects, outdir),
+    }
+    survey = {f"survey_{k}": v for k, v in plan.items()}
+    sim_params = {"layout": "kasepuhan", **asdict(params), **survey}
+    return Simulation(
+        "complex", params.seed, scene, {"cloud": res}, {"cloud": np.eye(4)}, sim_params,
+        extras, "EPSG:32749", (float(offset[0]), float(offset[1]), float(offset[2])),
+    )  # fmt: skip
+
+
 def kasepuhan_scene(params: ComplexSceneParams | None = None) -> ComplexScene:
     """Generate the walled complex: cloud, GIS layers and reference labels.
+
+    The layout is built as labelled surfaces and scanned by the airborne
+    simulator (:func:`kasepuhan_simulation`, the ``complex`` family's
+    ``layout="kasepuhan"`` member; :data:`KASEPUHAN_SURVEY`): walls running
+    east-west show both faces, walls running north-south mostly their tops;
+    tree crowns give several returns per pulse; the pond gives none.
 
     Parameters
     ----------
@@ -884,9 +968,11 @@ def kasepuhan_scene(params: ComplexSceneParams | None = None) -> ComplexScene:
     Returns
     -------
     ComplexScene
-        Cloud in EPSG:32749 with exactly ``params.n_points`` points (shuffled
-        order), the three GIS layers, per-point reference object ids (0 =
-        none) and ground mask.
+        Cloud in EPSG:32749 with exactly ``params.n_points`` points (in
+        acquisition order: strip by strip, pulse by pulse; attributes
+        ``intensity``, ``return_number``, ``number_of_returns``,
+        ``point_source_id``, ``gps_time``), the three GIS layers, per-point
+        reference object ids (0 = none) and ground mask.
 
     Examples
     --------
@@ -894,164 +980,23 @@ def kasepuhan_scene(params: ComplexSceneParams | None = None) -> ComplexScene:
     >>> len(scene.cloud), sorted(scene.layers)
     (20000, ['building', 'gate', 'wall'])
     """
-    params = params or ComplexSceneParams()
-    _validate(params)
-    rng = np.random.default_rng(params.seed)
-
-    # instance numbering: building, wall, gate features in layer order
-    fids = [b.fid for b in _BUILDINGS] + [w.fid for w in _WALLS] + [g.fid for g in _GATES]
-    owner_of = {fid: i + 1 for i, fid in enumerate(fids)}
-
-    mesh = _Mesh()
-    fp = _build_buildings(mesh, owner_of, rng)
-    fp.update(_build_walls(mesh, owner_of))
-    fp.update(_build_gates(mesh, owner_of))
-    obstacles = unary_union(list(fp.values()))
-    crowns = _place_trees(rng, obstacles)
-    _build_trunks(mesh, crowns)
-    _build_clutter(mesh, rng, obstacles)
-    digitised = _digitise(fp, params, rng)
-    pond = digitised["B20"].buffer(1.0)
-
-    tris, owner, kind, group = mesh.arrays()
-    area, nz = _tri_props(tris)
-    density = nz + params.facade_weight * np.sqrt(np.clip(1.0 - nz * nz, 0.0, 1.0))
-    density = np.where(kind == _COLUMN, density * params.column_weight, density)
-    density = np.where(kind == _TREE, density * 0.5, density)
-    tri_w = area * density
-
-    # visibility rasters, independent of the density
-    raster = _Raster(_ZBUF_CELL_M)
-    up = (nz > 0.3) & np.isin(kind, _OPAQUE)
-    per_m2 = 12.0 / _ZBUF_CELL_M**2
-    dense_n = np.ceil(area[up] * nz[up] * per_m2).astype(np.intp) + 3
-    up_idx = np.flatnonzero(up)
-    dense_idx = np.repeat(up_idx, dense_n)
-    dense = _sample_triangles(tris, dense_idx, rng)
-    top_z, top_g = _top_surface(raster, dense, group[dense_idx])
-    crown_z = _crown_top(raster, crowns)
-
-    ground_area = _EXTENT_M[0] * _EXTENT_M[1]
-    cr, crz = crowns[:, 3], crowns[:, 4]
-    crown_area = (
-        0.75 * 4 * np.pi * ((2 * (cr * cr) ** 1.6 + (cr * crz) ** 1.6 * 2) / 6) ** (1 / 1.6)
-    )
-    weights = np.concatenate([[ground_area], tri_w, crown_area])
-    probs = weights / weights.sum()
-
-    height = _HeightGrid()
-    args = (probs, tris, owner, kind, group, nz > 0.3, crowns, height, rng)
-    vis = (raster, top_z, top_g, crown_z, pond, params, height, rng)
-    # a pilot draw measures the share of visible candidates, so one full draw suffices
-    pilot = _draw(200_000, *args)
-    share = np.count_nonzero(_visible(pilot[0], pilot[2], pilot[3], pilot[1], *vis)) / 200_000
-    n_target = params.n_points
-    n_draw = int(n_target / max(share, 0.05) * 1.02) + 1000
-    for _attempt in range(4):  # grows the draw in the unlikely case it fell short
-        xyz, ref, gnd, crown_pt = _draw(n_draw, *args)
-        keep = _visible(xyz, gnd, crown_pt, ref, *vis)
-        n_keep = int(np.count_nonzero(keep))
-        if n_keep >= n_target:
-            break
-        n_draw = int(n_draw * 1.05 * n_target / max(n_keep, 1))
-    else:  # pragma: no cover - occlusion never removes that much
-        raise RuntimeError("could not draw enough visible points")
-
-    # exactly n_target visible points: drop a random few (the order is already random)
-    kept = np.flatnonzero(keep)
-    surplus = np.ones(len(kept), bool)
-    surplus[rng.choice(len(kept), len(kept) - n_target, replace=False)] = False
-    sel = kept[surplus]
-    xyz = xyz[sel]
-    ref_inst, ground = ref[sel, 0].astype(np.int32), gnd[sel]
-    del keep, kept, surplus, ref, gnd, crown_pt
-    if params.noise_m > 0:
-        xyz += rng.normal(0.0, params.noise_m, xyz.shape)
-
-    offset = np.array(
-        [
-            params.origin_en[0] - _EXTENT_M[0] / 2,
-            params.origin_en[1] - _EXTENT_M[1] / 2,
-            params.base_height_m,
-        ]
-    )
-    crs = pyproj.CRS("EPSG:32749")
+    sim = kasepuhan_simulation(params)
+    res = sim.clouds["cloud"]
+    attributes = {
+        "intensity": res.intensity,
+        "return_number": res.return_number,
+        "number_of_returns": res.number_of_returns,
+        "point_source_id": res.point_source_id,
+        "gps_time": res.gps_time,
+    }
     cloud = PointCloud(
-        xyz=xyz, offset=offset, crs=crs, scale=np.full(3, 0.001), source="synthetic:kasepuhan"
-    )
-    layers, objects = _layers(digitised, offset[:2], crs, owner_of, ref_inst)
-    extent = affinity.translate(box(0, 0, *_EXTENT_M), offset[0], offset[1])
-    return ComplexScene(cloud, layers, ref_inst, objects, ground, extent)
-
-
-def _draw(n, probs, tris, owner, kind, group, up, crowns, height, rng):
-    """Candidate points from the ground, the triangles and the tree crowns, in random order.
-
-    Returns xyz, per-point (owner, kind, occlusion group, faces up) and the
-    ground / crown masks.  The order is random by construction (a shuffled
-    source sequence and shuffled triangle indices), so no large coordinate
-    array is ever permuted.
-    """
-    counts = rng.multinomial(n, probs)
-    n_ground = int(counts[0])
-    n_tri = counts[1 : 1 + len(tris)]
-    n_crown = counts[1 + len(tris) :]
-    source = np.repeat(np.arange(3, dtype=np.uint8), [n_ground, n_tri.sum(), n_crown.sum()])
-    rng.shuffle(source)
-    gnd, on_tri, crown_pt = source == 0, source == 1, source == 2
-    del source
-    xyz = np.empty((n, 3))
-    info = np.zeros((n, 4), np.int32)  # owner, kind, occlusion group, faces up
-    # ground
-    gx = rng.uniform(0.0, _EXTENT_M[0], n_ground)
-    gy = rng.uniform(0.0, _EXTENT_M[1], n_ground)
-    xyz[gnd] = np.column_stack([gx, gy, height(gx, gy)])
-    info[gnd] = (0, _GROUND, 0, 1)
-    del gx, gy
-    # triangles
-    t_idx = rng.permutation(np.repeat(np.arange(len(tris), dtype=np.int32), n_tri))
-    xyz[on_tri] = _sample_triangles(tris, t_idx, rng)
-    info[on_tri] = np.column_stack([owner[t_idx], kind[t_idx], group[t_idx], up[t_idx]])
-    del t_idx
-    # crowns: upper surface (z of the unit sphere uniform in [-0.3, 1] = uniform area) + interior
-    c_idx = rng.permutation(np.repeat(np.arange(len(crowns)), n_crown))
-    m = len(c_idx)
-    uz = rng.uniform(-0.3, 1.0, m)
-    phi = rng.uniform(0.0, 2 * np.pi, m)
-    rad = np.where(rng.random(m) < 0.8, 1.0, np.cbrt(rng.random(m)))
-    rxy = np.sqrt(1.0 - uz * uz) * rad
-    c = crowns[c_idx]
-    xyz[crown_pt] = np.column_stack(
-        [
-            c[:, 0] + c[:, 3] * rxy * np.cos(phi),
-            c[:, 1] + c[:, 3] * rxy * np.sin(phi),
-            c[:, 2] + c[:, 4] * uz * rad,
-        ]
-    )
-    info[crown_pt] = (0, _TREE, -1, 1)
-    return xyz, info, gnd, crown_pt
-
-
-def _visible(xyz, gnd, crown_pt, info, raster, top_z, top_g, crown_z, pond, params, height, rng):
-    """Mask of candidate points a nadir/oblique survey measures."""
-    x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-    keep = (x >= 0) & (x < _EXTENT_M[0]) & (y >= 0) & (y < _EXTENT_M[1])
-    # nothing below the terrain (buried foundations, trunk bases)
-    above = np.flatnonzero(keep & ~gnd)
-    keep[above] = z[above] >= height(x[above], y[above]) - 0.03
-    cells = raster.index(x, y)
-    # nadir z-buffer: upward-facing points under another, higher surface are hidden
-    flat = info[:, 3].astype(bool)
-    hidden = flat & (top_z[cells] > z + _ZBUF_TOL_M) & (top_g[cells] != info[:, 2])
-    keep &= ~hidden
-    # tree crowns let a fraction of the returns through
-    under = ~crown_pt & (crown_z[cells] > z + 0.3)
-    keep &= ~under | (rng.random(len(z)) < params.crown_penetration)
-    # water gives no returns
-    x0, y0, x1, y1 = pond.bounds
-    box_in = np.flatnonzero((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
-    keep[box_in[shapely.contains_xy(pond, x[box_in], y[box_in])]] = False
-    return keep
+        xyz=res.xyz, offset=np.asarray(sim.offset), crs=pyproj.CRS(sim.crs),
+        attributes=attributes, scale=np.full(3, 0.001), source="synthetic:kasepuhan",
+    )  # fmt: skip
+    ground = res.class_id == sim.scene.class_code("ground")
+    layers, objects = sim.extras["layers"], sim.extras["reference_objects"]
+    return ComplexScene(cloud, layers, res.instance.astype(np.int32), objects, ground,
+                        sim.extras["extent"])  # fmt: skip
 
 
 def _layers(

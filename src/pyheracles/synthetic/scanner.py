@@ -655,7 +655,10 @@ def _airborne(
     for s in range(n_strips):
         line = np.repeat(np.arange(n_lines), pulses_per_line)
         k = np.tile(np.arange(pulses_per_line), n_lines)
-        frac = (k + 0.5) / pulses_per_line
+        # the mirror's phase drifts from line to line: without it every line would fire at
+        # the same across-track angles and a flight parallel to a wall could miss its face
+        phase = rng.uniform(0.0, 1.0, n_lines)[line]
+        frac = np.clip((k + phase) / pulses_per_line, 0.0, 1.0)
         forward = line % 2 == 0
         theta = np.deg2rad(sv.half_fov_deg) * np.where(forward, 2 * frac - 1, 1 - 2 * frac)
         t_time = (line + frac) / sv.scan_rate_hz
