@@ -1094,14 +1094,10 @@ def write_scene(scene: ComplexScene, outdir: str | Path) -> dict[str, Path]:
         cloud, out / "cloud.laz", extra_dims={"reference_instance": scene.reference_instance}
     )
     for name, gdf in scene.layers.items():
-        target = out / f"{name}.gpkg"
-        with atomic_path(target) as tmp:
-            # "fid" is the GeoPackage's default primary-key name: keep our string ids in a
-            # field of that name and let the key be "ogc_fid"
-            gdf.to_file(
-                tmp, layer=name, driver="GPKG", engine="pyogrio", layer_options={"FID": "ogc_fid"}
-            )
-        paths[name] = target
+        from pyheracles.io.vector import write_gpkg
+
+        # GeoPackage 1.2 (read by GDAL 3.6 without a warning); key "ogc_fid", our ids in "fid"
+        paths[name] = write_gpkg(gdf, out / f"{name}.gpkg", layer=name)
     target = out / "reference_objects.csv"
     with atomic_path(target) as tmp:
         scene.reference_objects.to_csv(tmp, index=False)

@@ -312,6 +312,7 @@ def write_layers(layers: dict[str, Any], objects: Any, outdir: str | Path) -> di
     key is ``ogc_fid``.  ``object_id`` is written as a 64-bit integer field.
     """
     from pyheracles.io.atomic import atomic_path
+    from pyheracles.io.vector import GPKG_VERSION
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
@@ -319,7 +320,8 @@ def write_layers(layers: dict[str, Any], objects: Any, outdir: str | Path) -> di
     with atomic_path(target) as tmp:
         for k, (name, gdf) in enumerate(layers.items()):
             gdf.to_file(tmp, layer=name, driver="GPKG", engine="pyogrio",
-                        layer_options={"FID": "ogc_fid"}, append=k > 0)  # fmt: skip
+                        layer_options={"FID": "ogc_fid"}, append=k > 0,
+                        dataset_options={"VERSION": GPKG_VERSION} if k == 0 else None)  # fmt: skip
     table = out / "reference_objects.csv"
     with atomic_path(table) as tmp:
         objects.to_csv(tmp, index=False)
