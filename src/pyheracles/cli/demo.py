@@ -22,13 +22,16 @@ def register(app: typer.Typer) -> None:
         points: int = typer.Option(400_000, help="Points in the generated complex."),
         seed: int = typer.Option(0, help="Seed of the generated scene."),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
+        open_report: bool = typer.Option(
+            False, "--open", help="Open report.html in the web browser when done."
+        ),
     ) -> None:
         """Run step 1 on a generated walled complex (like the thesis's Kasepuhan) and score it.
 
         Writes into OUT: scene/ (the generated inputs: cloud.laz, building/wall/gate
         GeoPackages, reference), result/ (segmented.laz, objects.gpkg, per-object LAZ,
-        run.json naming the scene/ inputs and the scene's seed, evaluation.csv/.json)
-        and overview.png.
+        run.json naming the scene/ inputs and the scene's seed, evaluation.csv/.json,
+        report.html: the page to open first) and overview.png.
 
         Example:
 
@@ -41,6 +44,13 @@ def register(app: typer.Typer) -> None:
         _print_scores(table)
         console.print(f"ground: precision {gscore['precision']:.3f}, recall {gscore['recall']:.3f}")
         print_counts(seg.counts(), timings, paths)
+        report = out / "result" / "report.html"
+        if report.exists():
+            console.print(f"[bold]report:[/] {report} (open it in a web browser)")
+            if open_report:
+                import webbrowser
+
+                webbrowser.open(report.resolve().as_uri())
 
 
 def _run_demo(outdir: Path, points: int, seed: int) -> tuple[Any, ...]:
