@@ -177,7 +177,8 @@ def test_depend_datum_without_control(small_network):
         xyz_std=np.full_like(project.xyz_std, np.nan),
         datum=None,
     )
-    res = bundle_adjust(free)
+    with pytest.warns(BundleWarning, match="the datum is a dependent relative orientation"):
+        res = bundle_adjust(free)
     assert res.network.datum == "depend"
     # 7 datum parameters fixed: 6 of the reference image + 1 base coordinate.
     assert (~res.network.eo_free).sum() == 7

@@ -12,6 +12,7 @@ relative one: ``||J p|| <= tol ||r||``.
 from __future__ import annotations
 
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -19,13 +20,15 @@ import numpy as np
 import scipy.linalg
 
 from pyheracles.bundle.camera import FORWARD_MODEL, IO_NAMES, MODELS, image_residuals
+from pyheracles.bundle.diagnostics import control_point_test
 from pyheracles.bundle.initial import (
     centre_rotation,
     forward_intersection,
     ideal_rays,
+    relative_block_orientation,
     spatial_resection,
 )
-from pyheracles.bundle.project import Project
+from pyheracles.bundle.project import BundleWarning, Project
 from pyheracles.bundle.schur import PointCameraSystem
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
 
@@ -33,6 +36,7 @@ __all__ = ["BundleParameters", "BundleResult", "bundle_adjust", "prepare_network
 
 DAMPINGS = ("gna", "lm", "gn")
 DATUMS = ("auto", "control", "depend", "free")
+SNOOPING_TESTS = ("w", "tau")
 EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 
 
@@ -70,6 +74,13 @@ class BundleParameters:
         Compute the posterior covariance (IO, EO, every object point's 3x3 block).
     blas_threads
         BLAS threads during the adjustment (None = library default).
+    snooping
+        Data snooping test of the image observations: "w" (Baarda's w-test with
+        the a priori standard deviations, critical value 3.29) or "tau" (Pope's
+        tau test with the posterior sigma0, critical value from the tau
+        distribution for the redundancy, at ``snooping_alpha`` per observation).
+    snooping_alpha
+        Significance level of the tau test (per observation; Pope 1976).
     """
 
     damping: str = "gna"
@@ -83,8 +94,17 @@ class BundleParameters:
     min_rays: int = 2
     covariance: bool = True
     blas_threads: int | None = 1
+    snooping: str = "w"
+    snooping_alpha: float = 0.001
 
     def __post_init__(self) -> None:
+        if self.snooping not in SNOOPING_TESTS:
+            raise InputError(
+                f"unknown data snooping test '{self.snooping}'; choose one of "
+                f"{list(SNOOPING_TESTS)}"
+            )
+        if not (0 < self.snooping_alpha < 1):
+            raise InputError("snooping_alpha must be in (0, 1)")
         if self.damping not in DAMPINGS:
             raise InputError(f"unknown damping '{self.damping}'; choose one of {list(DAMPINGS)}")
         if self.datum not in DATUMS:
@@ -179,6 +199,7 @@ class BundleResult:
     rank_deficiency: list = field(default_factory=list)
     redundancy_numbers: np.ndarray | None = None
     prior_redundancy_numbers: np.ndarray | None = None
+    diagnosis: dict = field(default_factory=dict)
 
     @property
     def cameras(self):
@@ -205,12 +226,22 @@ def _choose_datum(project: Project, params: BundleParameters) -> str:
             raise DegenerateGeometryError(
                 f"datum by control points needs at least 3 control points, found {n_ctrl}",
                 path=project.source,
-                hint="add control points (--control) or use the 'depend' datum",
+                hint="add control points (--control) or use --datum depend",
             )
         return "control"
     if params.datum == "depend" or project.datum == "depend":
         return "depend"
-    return "control" if n_ctrl >= 3 else "depend"
+    if n_ctrl >= 3:
+        return "control"
+    warnings.warn(
+        f"{project.source}: {n_ctrl} fixed or weighted control point(s) (3 needed for a "
+        "datum by control points): the datum is a dependent relative orientation "
+        "('depend': first image fixed, scale by one base coordinate), so coordinates are "
+        "in an arbitrary frame and scale",
+        BundleWarning,
+        stacklevel=4,
+    )
+    return "depend"
 
 
 def _initial_values(project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray) -> Project:
@@ -224,15 +255,39 @@ def _initial_values(project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray) ->
     need = ~np.all(np.isfinite(eo), axis=1)
     if project.needs_resection:
         need[:] = True
+    n_known = np.bincount(project.obs_image[known[project.obs_point]], minlength=project.n_images)
+    if np.any(need & (n_known < 4)):
+        # Scarce control: orient the block relatively (essential matrix of the best
+        # pair, resection on the growing block), then move it onto the control.
+        scarce = np.flatnonzero(need & (n_known < 4))
+        eo, _, info = relative_block_orientation(
+            project.obs_image,
+            project.obs_point,
+            ideal_rays(uv_mm, io_all[obs_cam], model),
+            uv_mm,
+            io_all[obs_cam],
+            model,
+            project.n_images,
+            project.n_points,
+            np.where(known[:, None], xyz, np.nan),
+            source=project.source,
+        )
+        warnings.warn(
+            f"{project.source}: image(s) {project.image_ids[scarce][:10].tolist()} lack an "
+            "exterior orientation and see fewer than 4 control points: the block was "
+            f"initialised by relative orientation of images {project.image_ids[info['pair'][0]]} "
+            f"and {project.image_ids[info['pair'][1]]} and resection of the others"
+            + (
+                f", moved onto {info['n_control_used']} control points"
+                if info["frame"] == "control"
+                else " (fewer than 3 control points: arbitrary frame and scale)"
+            ),
+            BundleWarning,
+            stacklevel=4,
+        )
+        need[:] = False
     for i in np.flatnonzero(need):
         sel = (project.obs_image == i) & known[project.obs_point]
-        if sel.sum() < 4:
-            raise InputError(
-                f"image {project.image_ids[i]} has no prior exterior orientation and sees "
-                f"only {int(sel.sum())} control points (4 needed for a resection)",
-                path=project.source,
-                hint="give prior EO (initial_eo file) or more control points",
-            )
         eo[i] = spatial_resection(
             xyz[project.obs_point[sel]], uv_mm[sel], io_all[project.image_camera[i]], model
         )
@@ -282,6 +337,15 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
 
     io_free = project.estimate_io.copy()
     if model in (1, 2, FORWARD_MODEL):
+        dropped = [IO_NAMES[j] for j in (3, 4) if io_free[:, j].any()]
+        if dropped:
+            warnings.warn(
+                f"{project.source}: {' and '.join(dropped)} requested but lens model {model} "
+                "has no affinity or skew term: not estimated (choose lens model 3, 4 or 5 to "
+                "estimate them)",
+                BundleWarning,
+                stacklevel=3,
+            )
         io_free[:, 3:5] = False
     eo_free = project.estimate_eo.copy()
     role = project.point_role
@@ -524,6 +588,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     net = prepare_network(project, params)
     p = net.project
     st = _State(np.array([c.io_vector() for c in p.cameras]), p.eo.copy(), p.xyz.copy())
+    diagnosis: dict = {"control_test_before": control_point_test(net, st.io, st.eo, 1.0)}
+    _warn_gross(p, diagnosis["control_test_before"], "before")
     timings = {"setup": time.perf_counter() - t0}
     t1 = time.perf_counter()
     r, jac = _residuals(net, st, jacobian=True)
@@ -534,16 +600,28 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     converged = False
     status = "ok"
     lam = params.lm_lambda0 if params.damping == "lm" else 0.0
+
+    def failure(exc: Exception, **extra) -> Exception:
+        exc.diagnosis = _failure_diagnosis(net, st, r, norms, n_iter, diagnosis, **extra)
+        return exc
+
     while True:
         ne = PointCameraSystem.build(net, st, r, jac)
-        ne.reduce(raise_singular=_singular_points(p))
+        try:
+            ne.reduce(raise_singular=_singular_points(p))
+        except DegenerateGeometryError as exc:
+            raise failure(exc, status=str(exc)) from None
         fac, d = _cholesky(ne.s)
         if fac is None:
             deficiency = _rank_report(net, ne.s)
-            raise DegenerateGeometryError(
-                f"the normal equations are rank deficient: {_rank_message(deficiency)}",
-                path=p.source,
-                hint="fix some interior parameters (--estimate) or add control points",
+            raise failure(
+                DegenerateGeometryError(
+                    f"the normal equations are rank deficient: {_rank_message(deficiency)}",
+                    path=p.source,
+                    hint="fix some interior parameters (--estimate) or add control points",
+                ),
+                status="rank deficient",
+                rank_deficiency=deficiency,
             )
         dp, dc = _solve(ne, fac, d)
         g = np.concatenate([ne.g_op.ravel(), ne.g_cam])
@@ -596,10 +674,21 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
         norms.append(float(np.linalg.norm(r)))
     timings["adjust"] = time.perf_counter() - t1
     if not converged:
-        raise EstimationError(
-            f"{p.source}: bundle adjustment did not converge ({status}); "
-            f"residual norms {np.round(norms, 3).tolist()}"
+        exc = failure(
+            EstimationError(
+                f"{p.source}: bundle adjustment did not converge ({status}); "
+                f"residual norms {np.round(norms, 3).tolist()}"
+            ),
+            status=status,
         )
+        before = diagnosis["control_test_before"]["gross"]
+        after = exc.diagnosis["control_test_after"]["gross"]
+        if before or after:
+            exc.args = (
+                f"{exc.args[0]}; gross control/check point(s) before the adjustment "
+                f"{before[:10]}, at the last iterate {after[:10]}",
+            )
+        raise exc
     m_obs = 2 * p.n_observations + net.n_prior
     n_par = net.n_free
     dof = m_obs - n_par
@@ -628,7 +717,10 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
         weighted_residuals=r,
         history={"residual_norm": norms, "alpha": alphas, "lambda": lambdas},
         timings=timings,
+        diagnosis=diagnosis,
     )
+    diagnosis["control_test_after"] = control_point_test(net, st.io, st.eo, sigma0)
+    _warn_gross(p, diagnosis["control_test_after"], "after")
     if params.covariance:
         t2 = time.perf_counter()
         _posterior(result, ne, fac, d)
@@ -637,6 +729,53 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
         timings["covariance"] = time.perf_counter() - t2
     timings["total"] = time.perf_counter() - t0
     return result
+
+
+def _warn_gross(p: Project, test: dict, when: str) -> None:
+    if test["gross"]:
+        worst = {q["id"]: q for q in test["points"]}
+        parts = [
+            f"{pid} ({worst[pid]['label']}, {worst[pid]['role']}: "
+            f"{worst[pid]['delta_norm']:.3g} from its intersection)"
+            for pid in test["gross"][:5]
+        ]
+        warnings.warn(
+            f"{p.source}: gross control/check point(s) {when} the adjustment: "
+            f"{', '.join(parts)}; median discrepancy {test['median_delta']:.3g}. Check their "
+            "coordinates and ids (or make them check points)",
+            BundleWarning,
+            stacklevel=4,
+        )
+
+
+def _failure_diagnosis(net: Network, st: _State, r: np.ndarray, norms: list, n_iter: int,
+                       diagnosis: dict, status: str = "",
+                       rank_deficiency: list | None = None) -> dict:  # fmt: skip
+    """What a failed run can still tell: iterations, residuals, worst observations."""
+    from pyheracles.bundle.diagnostics import worst_observations
+
+    m = 2 * net.project.n_observations + net.n_prior
+    dof = m - net.n_free
+    out = dict(diagnosis)
+    out.update(
+        {
+            "failed": True,
+            "status": status,
+            "iterations": n_iter,
+            "residual_norm_history": [float(x) for x in norms],
+            "sigma0_last": float(np.sqrt(r @ r / dof)) if dof > 0 else None,
+            "redundancy": int(dof),
+            "n_parameters": int(net.n_free),
+            "datum": net.datum,
+            "worst_observations": worst_observations(net, r),
+            "rank_deficiency": rank_deficiency or [],
+        }
+    )
+    try:
+        out["control_test_after"] = control_point_test(net, st.io, st.eo, out["sigma0_last"] or 1.0)
+    except (np.linalg.LinAlgError, ValueError):  # pragma: no cover - diagnosis only
+        out["control_test_after"] = {"points": [], "gross": []}
+    return out
 
 
 def _posterior(res: BundleResult, ne: PointCameraSystem, fac, d) -> None:

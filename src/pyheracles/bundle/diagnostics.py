@@ -15,10 +15,13 @@ from pyheracles.bundle.camera import IO_NAMES
 
 __all__ = [
     "control_point_residuals",
+    "control_point_test",
     "data_snooping",
     "high_correlations",
     "image_statistics",
     "ray_angles",
+    "tau_critical",
+    "worst_observations",
 ]
 
 EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
@@ -193,29 +196,185 @@ def image_statistics(result) -> list[dict]:
     return out
 
 
-def data_snooping(result, critical: float = 3.29) -> dict:
-    """Normalised residuals of the image coordinates (Baarda's w-test, Pope's tau).
+def tau_critical(redundancy: int, alpha: float = 0.001) -> float:
+    """Critical value of Pope's tau distribution (two-sided, level ``alpha``).
 
-    ``w = v / (sigma_v)`` with ``sigma_v = sigma_prior * sqrt(redundancy number)``
-    (a priori unit variance), and ``tau = w / sigma0`` (estimated variance).
+    ``tau = sqrt(r) t / sqrt(r - 1 + t^2)`` with ``t`` Student's quantile for
+    ``r - 1`` degrees of freedom (Pope 1976); tends to the normal quantile for a
+    large redundancy ``r``.
+    """
+    from scipy.stats import norm, t
+
+    if redundancy <= 1:
+        return float("inf")
+    if redundancy > 1e6:
+        return float(norm.ppf(1 - alpha / 2))
+    q = float(t.ppf(1 - alpha / 2, redundancy - 1))
+    return float(np.sqrt(redundancy) * q / np.sqrt(redundancy - 1 + q * q))
+
+
+def data_snooping(result, critical: float | None = None, test: str | None = None) -> dict:
+    """Normalised residuals of the image coordinates (Baarda's w-test, Pope's tau test).
+
+    ``w = v / sigma_v`` with ``sigma_v = sigma_prior * sqrt(redundancy number)``
+    (the a priori unit variance), and ``tau = w / sigma0`` (the posterior one).
+    The w-test assumes the a priori standard deviations are right: with sigma0 =
+    1.6 a clean network already has many |w| > 3.29; the tau test does not.
 
     Parameters
     ----------
     critical
-        Critical value for |w| (3.29 = two-sided 0.1 % normal quantile, Baarda).
+        Critical value of the chosen statistic; default 3.29 (two-sided 0.1 %
+        normal quantile, Baarda) for "w", :func:`tau_critical` of the redundancy
+        at ``result.parameters.snooping_alpha`` for "tau".
+    test
+        "w" or "tau"; default ``result.parameters.snooping``.
 
     Returns
     -------
-    dict with ``w`` (m,2), ``tau`` (m,2), ``flagged`` (indices of observations
-    with max |w| > critical), and the counts.
+    dict with ``test``, ``statistic`` (m,2) of the chosen test, ``w`` (m,2),
+    ``tau`` (m,2), ``flagged`` (indices of observations whose max |statistic|
+    exceeds ``critical``, worst first), ``critical``, ``n_flagged``, ``sigma``
+    (the unit standard deviation the test uses) and ``description``.
     """
+    params = getattr(result, "parameters", None)
+    test = test or getattr(params, "snooping", "w")
+    if test not in ("w", "tau"):
+        raise ValueError(f"unknown data snooping test '{test}'; choose 'w' or 'tau'")
     m = result.project.n_observations
     r = result.weighted_residuals[: 2 * m].reshape(m, 2)
     red = result.redundancy_numbers
     with np.errstate(invalid="ignore", divide="ignore"):
         w = np.where(red > 1e-10, r / np.sqrt(np.clip(red, 1e-300, None)), 0.0)
     tau = w / result.sigma0 if result.sigma0 > 0 else w
-    worst = np.max(np.abs(w), axis=1)
-    flagged = np.flatnonzero(worst > critical)
+    if test == "w":
+        stat, crit_default, sigma = w, 3.29, 1.0
+        desc = "Baarda w-test (a priori standard deviations, sigma = 1)"
+    else:
+        alpha = getattr(params, "snooping_alpha", 0.001)
+        stat, crit_default, sigma = tau, tau_critical(result.redundancy, alpha), result.sigma0
+        desc = f"Pope tau test (posterior sigma0 = {result.sigma0:.4g}, alpha = {alpha:g})"
+    crit = crit_default if critical is None else critical
+    worst = np.max(np.abs(stat), axis=1)
+    flagged = np.flatnonzero(worst > crit)
     flagged = flagged[np.argsort(-worst[flagged])]
-    return {"w": w, "tau": tau, "flagged": flagged, "critical": critical, "n_flagged": len(flagged)}
+    return {"test": test, "statistic": stat, "w": w, "tau": tau, "flagged": flagged,
+            "critical": crit, "n_flagged": len(flagged), "sigma": float(sigma),
+            "description": desc}  # fmt: skip
+
+
+def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
+                       alpha: float = 0.001, ratio: float = 5.0) -> dict:  # fmt: skip
+    """Test every control and check point against its intersection from the images.
+
+    Each point's rays are intersected with the given orientations (least squares,
+    three Gauss-Newton steps on the image residuals); the discrepancy ``d =
+    x_intersected - x_reference`` is tested with ``T = d' (C_int + C_ref)^-1 d``
+    against the chi-square (3) quantile ``1 - alpha``, where ``C_int = sigma^2 A^-1``
+    (A: the point's normal matrix) and ``C_ref`` the reference's prior covariance
+    (0 for fixed points).  A point is *gross* when it fails the test and its
+    discrepancy is also over ``ratio`` times the median discrepancy of all tested
+    points (before the adjustment the orientations are only approximate, so every
+    point may fail the chi-square test; the gross ones stand out from the rest).
+
+    Parameters
+    ----------
+    net
+        The :class:`~pyheracles.bundle.adjust.Network` (observations in mm, weights).
+    io, eo
+        (ncam,10) interior and (n,6) exterior orientation to intersect with.
+    sigma
+        Standard deviation of unit weight (1 before the adjustment, sigma0 after).
+
+    Returns
+    -------
+    dict with ``points`` (list of {id, label, role, rays, delta (3,), delta_norm,
+    T, gross}), ``gross`` (ids), ``critical``, ``median_delta``.
+    """
+    from scipy.stats import chi2
+
+    from pyheracles.bundle.camera import image_residuals
+    from pyheracles.bundle.initial import centre_rotation, forward_intersection, ideal_rays
+
+    p = net.project
+    rays_n = p.rays()
+    cand = np.flatnonzero(
+        np.isin(p.point_role, ("control", "check"))
+        & np.all(np.isfinite(p.xyz), axis=1)
+        & (rays_n >= 2)
+    )
+    crit = float(chi2.ppf(1.0 - alpha, 3))
+    out: dict = {"points": [], "gross": [], "critical": crit, "median_delta": None,
+                 "sigma": float(sigma), "alpha": alpha}  # fmt: skip
+    if len(cand) == 0:
+        return out
+    local = np.full(p.n_points, -1)
+    local[cand] = np.arange(len(cand))
+    sel = local[p.obs_point] >= 0
+    k = local[p.obs_point[sel]]
+    img = p.obs_image[sel]
+    io_o = io[net.obs_cam[sel]]
+    centres, rots = centre_rotation(eo)
+    rays = ideal_rays(net.uv_mm[sel], io_o, net.model)
+    x = forward_intersection(centres[img], rots[img], rays, k, len(cand))
+    ok = np.all(np.isfinite(x), axis=1)
+    x[~ok] = p.xyz[cand][~ok]
+    w = net.sqrt_w[sel]
+    a = np.zeros((len(cand), 3, 3))
+    for _ in range(3):
+        res, (d_xyz, _, _) = image_residuals(io_o, eo[img], x[k], net.uv_mm[sel], net.model,
+                                             jacobian=True)  # fmt: skip
+        jw = d_xyz * w[:, :, None]
+        rw = res * w
+        a = np.zeros((len(cand), 3, 3))
+        np.add.at(a, k, np.einsum("mri,mrj->mij", jw, jw))
+        g = np.zeros((len(cand), 3))
+        np.add.at(g, k, np.einsum("mri,mr->mi", jw, rw))
+        good = np.abs(np.linalg.det(a)) > 1e-300
+        step = np.zeros_like(x)
+        step[good] = -np.linalg.solve(a[good], g[good][..., None])[..., 0]
+        if not np.all(np.isfinite(step)):
+            break
+        x = x + step
+    d = x - p.xyz[cand]
+    sref = np.nan_to_num(p.xyz_std[cand], nan=0.0)
+    cov = np.zeros_like(a)
+    good = np.abs(np.linalg.det(a)) > 1e-300
+    cov[good] = sigma**2 * np.linalg.inv(a[good])
+    cov += np.einsum("ni,ij->nij", sref**2, np.eye(3))
+    t = np.full(len(cand), np.inf)
+    pos = good & (np.abs(np.linalg.det(cov)) > 0)
+    t[pos] = np.einsum("ni,ni->n", d[pos], np.linalg.solve(cov[pos], d[pos][..., None])[..., 0])
+    dn = np.linalg.norm(d, axis=1)
+    med = float(np.median(dn))
+    gross = (t > crit) & (dn > ratio * med) & ok
+    out["median_delta"] = med
+    for j, i in enumerate(cand):
+        out["points"].append({
+            "id": int(p.point_ids[i]), "label": p.point_labels[i], "role": str(p.point_role[i]),
+            "rays": int(rays_n[i]), "delta": d[j].tolist(), "delta_norm": float(dn[j]),
+            "T": float(t[j]) if np.isfinite(t[j]) else None, "gross": bool(gross[j]),
+        })  # fmt: skip
+    order = np.argsort(-dn[gross])
+    out["gross"] = [int(p.point_ids[cand[gross][o]]) for o in order]
+    return out
+
+
+def worst_observations(net, residual_weighted: np.ndarray, top: int = 20) -> list[dict]:
+    """The ``top`` image observations with the largest weighted residual norm."""
+    p = net.project
+    m = p.n_observations
+    r = residual_weighted[: 2 * m].reshape(m, 2)
+    norm = np.linalg.norm(r, axis=1)
+    order = np.argsort(-norm)[:top]
+    px = r / net.sqrt_w / np.array([c.pixel_size_mm[0] for c in p.cameras])[net.obs_cam][:, None]
+    return [
+        {
+            "image": int(p.image_ids[p.obs_image[k]]),
+            "point": int(p.point_ids[p.obs_point[k]]),
+            "label": p.point_labels[p.obs_point[k]],
+            "weighted_residual": float(norm[k]),
+            "residual_px": px[k].tolist(),
+        }
+        for k in order
+    ]

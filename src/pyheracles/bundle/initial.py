@@ -7,7 +7,13 @@ import numpy as np
 from pyheracles.bundle.camera import corrected_points, image_residuals, rotation_matrix
 from pyheracles.errors import EstimationError, InputError
 
-__all__ = ["angles_from_rotation", "forward_intersection", "spatial_resection"]
+__all__ = [
+    "angles_from_rotation",
+    "essential_pose",
+    "forward_intersection",
+    "relative_block_orientation",
+    "spatial_resection",
+]
 
 
 def angles_from_rotation(rot: np.ndarray) -> np.ndarray:
@@ -194,3 +200,168 @@ def spatial_resection(
 def centre_rotation(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centres (n,3) and camera-to-world rotations (n,3,3) of EO rows."""
     return eo[:, :3], rotation_matrix(eo[:, 3:6])
+
+
+def essential_pose(rays1: np.ndarray, rays2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative pose of two images from corresponding camera-frame rays (8-point method).
+
+    Parameters
+    ----------
+    rays1, rays2
+        (k,3) ray directions (towards the object) in each camera's frame, k >= 8.
+
+    Returns
+    -------
+    rot_21, t_21
+        ``X2 = rot_21 X1 + t_21`` (camera-frame coordinates), ``|t_21| = 1``; the
+        candidate of the four decompositions that puts most points in front of both.
+    """
+    a = rays1 / np.linalg.norm(rays1, axis=1, keepdims=True)
+    b = rays2 / np.linalg.norm(rays2, axis=1, keepdims=True)
+    rows = np.einsum("ki,kj->kij", b, a).reshape(len(a), 9)  # b^T E a = 0
+    _, _, vt = np.linalg.svd(rows)
+    e = vt[-1].reshape(3, 3)
+    u, _, vt = np.linalg.svd(e)
+    if np.linalg.det(u) < 0:
+        u = -u
+    if np.linalg.det(vt) < 0:
+        vt = -vt
+    w = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    best, best_n = None, -1
+    for rot in (u @ w @ vt, u @ w.T @ vt):
+        for t in (u[:, 2], -u[:, 2]):
+            # depths l1, l2 with l2 b = rot (l1 a) + t, least squares per point
+            ra = a @ rot.T
+            m = np.stack([ra, -b], axis=2)  # (k,3,2)
+            mtm = np.einsum("kij,kil->kjl", m, m)
+            mtb = np.einsum("kij,i->kj", m, -t)
+            ok = np.abs(np.linalg.det(mtm)) > 1e-15
+            lam = np.zeros((len(a), 2))
+            lam[ok] = np.linalg.solve(mtm[ok], mtb[ok][..., None])[..., 0]
+            n_front = int(np.sum((lam[:, 0] > 0) & (lam[:, 1] > 0)))
+            if n_front > best_n:
+                best, best_n = (rot, t / np.linalg.norm(t)), n_front
+    return best
+
+
+def _similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Scale, rotation, translation with dst ~ s R src + t (Umeyama 1991)."""
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - ms, dst - md
+    u, sv, vt = np.linalg.svd(b.T @ a)
+    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    rot = u @ d @ vt
+    s = float(np.sum(sv * np.diag(d)) / np.sum(a**2))
+    return s, rot, md - s * rot @ ms
+
+
+def relative_block_orientation(
+    obs_image: np.ndarray,
+    obs_point: np.ndarray,
+    rays_cam: np.ndarray,
+    uv_mm: np.ndarray,
+    io_obs: np.ndarray,
+    model: int,
+    n_images: int,
+    n_points: int,
+    control_xyz: np.ndarray,
+    source: str | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Initial orientations of a block without usable ones, as structure from motion does.
+
+    The image pair sharing the most points (at least 8) is oriented relatively by
+    its essential matrix; the points it sees are intersected; then, repeatedly,
+    the image seeing most intersected points (at least 6) is resected and new
+    points intersected, until every image is oriented.  The block is finally
+    moved onto the control points by a similarity transform when at least three
+    of them are intersected (else it stays in the frame of the first image, base 1).
+
+    Parameters
+    ----------
+    obs_image, obs_point, rays_cam, uv_mm, io_obs
+        Per observation: image, point, lens-corrected camera-frame ray, the
+        measurement (mm) and the interior orientation (m,10).
+    control_xyz
+        (N,3) known control coordinates, NaN elsewhere.
+
+    Returns
+    -------
+    eo (n,6), xyz (N,3), info {pair, order, n_control_used, frame}
+
+    Raises
+    ------
+    DegenerateGeometryError
+        No pair with 8 common points, or images that never see 6 oriented points
+        (named).
+    """
+    from pyheracles.errors import DegenerateGeometryError
+
+    inc = np.zeros((n_images, n_points), bool)
+    inc[obs_image, obs_point] = True
+    common = inc.astype(np.int32) @ inc.T.astype(np.int32)
+    np.fill_diagonal(common, 0)
+    i0, j0 = np.unravel_index(int(np.argmax(common)), common.shape)
+    if common[i0, j0] < 8:
+        raise DegenerateGeometryError(
+            f"no image pair shares 8 points (best: images {i0 + 1} and {j0 + 1} share "
+            f"{int(common[i0, j0])}): the block cannot be oriented relatively",
+            path=source,
+            hint="measure more tie points between the images or give initial orientations",
+        )
+    obs_of = {}
+    for k, (i, p) in enumerate(zip(obs_image, obs_point, strict=True)):
+        obs_of.setdefault((int(i), int(p)), k)
+    shared = np.flatnonzero(inc[i0] & inc[j0])
+    k1 = np.array([obs_of[(int(i0), int(p))] for p in shared])
+    k2 = np.array([obs_of[(int(j0), int(p))] for p in shared])
+    rot21, t21 = essential_pose(rays_cam[k1], rays_cam[k2])
+    eo = np.full((n_images, 6), np.nan)
+    eo[i0] = 0.0
+    eo[j0, :3] = -rot21.T @ t21
+    eo[j0, 3:] = angles_from_rotation(rot21.T)[0]
+    done = np.zeros(n_images, bool)
+    done[[i0, j0]] = True
+    order = [int(i0), int(j0)]
+    xyz = np.full((n_points, 3), np.nan)
+
+    def intersect() -> None:
+        sel = done[obs_image]
+        n_or = np.bincount(obs_point[sel], minlength=n_points)
+        pts = n_or >= 2
+        use = sel & pts[obs_point]
+        idx = np.cumsum(pts) - 1
+        c, r = centre_rotation(eo[obs_image[use]])
+        x = forward_intersection(c, r, rays_cam[use], idx[obs_point[use]], int(pts.sum()))
+        xyz[pts] = x
+
+    intersect()
+    while not done.all():
+        known = np.all(np.isfinite(xyz), axis=1)
+        seen = (inc & known[None, :]).sum(axis=1)
+        seen[done] = -1
+        nxt = int(np.argmax(seen))
+        if seen[nxt] < 6:
+            missing = np.flatnonzero(~done) + 1
+            raise DegenerateGeometryError(
+                f"image(s) {missing[:10].tolist()} see fewer than 6 points of the oriented block "
+                "and cannot be resected (the network is not connected)",
+                path=source,
+                hint="measure tie points linking these images to the others, or remove them",
+            )
+        sel = np.flatnonzero((obs_image == nxt) & known[obs_point])
+        eo[nxt] = spatial_resection(xyz[obs_point[sel]], uv_mm[sel], io_obs[sel[0]], model)
+        done[nxt] = True
+        order.append(nxt)
+        intersect()
+    known = np.all(np.isfinite(xyz), axis=1)
+    ctrl = known & np.all(np.isfinite(control_xyz), axis=1)
+    info = {"pair": (int(i0), int(j0)), "order": order, "n_control_used": int(ctrl.sum()),
+            "frame": "relative"}  # fmt: skip
+    if ctrl.sum() >= 3:
+        s, rot, t = _similarity(xyz[ctrl], control_xyz[ctrl])
+        xyz = s * xyz @ rot.T + t
+        eo[:, :3] = s * eo[:, :3] @ rot.T + t
+        _, r = centre_rotation(eo)
+        eo[:, 3:] = angles_from_rotation(np.einsum("ij,njk->nik", rot, r))
+        info["frame"] = "control"
+    return eo, xyz, info

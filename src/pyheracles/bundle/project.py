@@ -26,6 +26,16 @@ class BundleWarning(UserWarning):
     """Something in the project was dropped or changed to make it processable."""
 
 
+def _refuse_duplicate_ids(ids: np.ndarray, what: str, src: str) -> None:
+    uniq, counts = np.unique(np.asarray(ids), return_counts=True)
+    if np.any(counts > 1):
+        raise InputError(
+            f"{what} id(s) {uniq[counts > 1][:10].tolist()} occur more than once",
+            path=src,
+            hint=f"give every {what} a unique id",
+        )
+
+
 @dataclass(frozen=True)
 class Project:
     """A photogrammetric network.
@@ -142,12 +152,48 @@ class Project:
             )
         if not np.all(np.isfinite(self.obs_uv_px)):
             raise InputError("image observations contain NaN/inf coordinates", path=src)
+        _refuse_duplicate_ids(self.point_ids, "point", src)
+        _refuse_duplicate_ids(self.image_ids, "image", src)
+        names = np.asarray(self.image_names, dtype=object)
+        uniq_names, counts = np.unique(names.astype(str), return_counts=True)
+        if np.any(counts > 1):
+            warnings.warn(
+                f"{src}: image file name(s) {uniq_names[counts > 1][:5].tolist()} used by more "
+                "than one image (the same photograph entered twice?)",
+                BundleWarning,
+                stacklevel=2,
+            )
         models = {c.model for c in self.cameras}
         if len(models) > 1:
             raise InputError(f"mixed lens distortion models {sorted(models)}", path=src)
-        rays = self.rays()
-        weak = (rays < min_rays) & (self.point_role == "tie")
         proj = self
+        key = self.obs_image.astype(np.int64) * max(self.n_points, 1) + self.obs_point
+        _, first = np.unique(key, return_index=True)
+        if len(first) < self.n_observations:
+            dup = np.ones(self.n_observations, bool)
+            dup[first] = False
+            k = np.flatnonzero(dup)
+            pairs = [
+                f"point {self.point_ids[self.obs_point[j]]} on image "
+                f"{self.image_ids[self.obs_image[j]]}"
+                for j in k[:5]
+            ]
+            warnings.warn(
+                f"{src}: {len(k)} duplicate image measurement(s) (same point measured twice "
+                f"on one image: {', '.join(pairs)}{' ...' if len(k) > 5 else ''}): the first "
+                "of each is kept",
+                BundleWarning,
+                stacklevel=2,
+            )
+            keep = np.sort(first)
+            proj = proj.replace(
+                obs_image=self.obs_image[keep],
+                obs_point=self.obs_point[keep],
+                obs_uv_px=self.obs_uv_px[keep],
+                obs_std_px=self.obs_std_px[keep],
+            )
+        rays = proj.rays()
+        weak = (rays < min_rays) & (self.point_role == "tie")
         if np.any(weak & (rays > 0)):
             ids = self.point_ids[weak & (rays > 0)]
             warnings.warn(
@@ -216,6 +262,13 @@ class Project:
         (with a warning).
         """
         ids = np.asarray(control["id"])
+        uniq, counts = np.unique(ids, return_counts=True)
+        if np.any(counts > 1):
+            raise InputError(
+                f"control point id(s) {uniq[counts > 1][:10].tolist()} given more than once",
+                path=control.get("source"),
+                hint="every control or check point appears once in the control table",
+            )
         idx = np.searchsorted(self.point_ids, ids)
         idx = np.clip(idx, 0, max(self.n_points - 1, 0))
         found = (self.n_points > 0) & (self.point_ids[idx] == ids)
@@ -249,6 +302,19 @@ class Project:
             xyz_std=std,
             point_labels=tuple(labels),
             datum="control",
+            meta={
+                **self.meta,
+                "control": {
+                    "source": control.get("source"),
+                    "layout": control.get("layout"),
+                    "header": control.get("header"),
+                    "echo": control.get("echo", []),
+                    "n_control": int(
+                        sum(r == "control" for r in np.asarray(control["role"])[found])
+                    ),
+                    "n_check": int(sum(r == "check" for r in np.asarray(control["role"])[found])),
+                },
+            },
         )
 
     def with_default_io(self, cc_mm: float | None = None) -> Project:

@@ -21,7 +21,7 @@ from pyheracles.bundle.diagnostics import (
     ray_angles,
 )
 
-__all__ = ["report_dict", "report_text", "write_reports"]
+__all__ = ["failure_text", "report_dict", "report_text", "write_failure_report", "write_reports"]
 
 _CAM_LABELS = {
     "cc": ("Camera Constant", "mm"),
@@ -153,19 +153,59 @@ def report_dict(result, *, threshold: float = 0.95, top: int = 20) -> dict:
             "residual_max_px": float(np.max(np.linalg.norm(result.residuals_px, axis=1))),
         },
         "data_snooping": {
+            "test": snoop["test"],
+            "description": snoop["description"],
+            "sigma": snoop["sigma"],
+            "critical": snoop["critical"],
             "critical_w": snoop["critical"],
             "n_flagged": snoop["n_flagged"],
             "worst": [
                 {
                     "image": int(p.image_ids[p.obs_image[k]]),
                     "point": int(p.point_ids[p.obs_point[k]]),
+                    "statistic": float(np.max(np.abs(snoop["statistic"][k]))),
                     "w": float(np.max(np.abs(snoop["w"][k]))),
+                    "tau": float(np.max(np.abs(snoop["tau"][k]))),
                     "residual_px": result.residuals_px[k].tolist(),
                 }
                 for k in flagged
             ],
         },
+        "control_file": p.meta.get("control"),
+        "control_point_tests": {
+            k: _json_test(result.diagnosis.get(f"control_test_{k}")) for k in ("before", "after")
+        },
+        "gross_control_points": {
+            k: list(result.diagnosis.get(f"control_test_{k}", {}).get("gross", []))
+            for k in ("before", "after")
+        },
         "rank_deficiency": result.rank_deficiency,
+        "object_points": _object_points(result, rays),
+    }
+
+
+def _g(v) -> str:
+    return "n/a" if v is None else f"{v:.3g}"
+
+
+def _json_test(test: dict | None) -> dict | None:
+    if test is None:
+        return None
+    return {k: v for k, v in test.items()}
+
+
+def _object_points(result, rays: np.ndarray) -> dict:
+    """Every object point, columnar: id, label, role, X Y Z, sX sY sZ, rays."""
+    p = result.project
+    std = result.xyz_std if result.xyz_std is not None else np.full_like(result.xyz, np.nan)
+    return {
+        "columns": ["id", "label", "role", "X", "Y", "Z", "sX", "sY", "sZ", "rays"],
+        "id": p.point_ids.astype(int).tolist(),
+        "label": list(p.point_labels),
+        "role": [str(r) for r in p.point_role],
+        "xyz": np.round(result.xyz, 9).tolist(),
+        "std": np.round(std, 12).tolist(),
+        "rays": rays.astype(int).tolist(),
     }
 
 
@@ -198,10 +238,19 @@ def report_text(result, data: dict | None = None) -> str:
     if d["correlations"]["op_pairs_above"]:
         probs.append("One or more of the object point coordinates has a high correlation.")
     if d["data_snooping"]["n_flagged"]:
+        sym = "tau" if d["data_snooping"]["test"] == "tau" else "w"
         probs.append(
             f"{d['data_snooping']['n_flagged']} image observation(s) fail the data "
-            f"snooping test (|w| > {d['data_snooping']['critical_w']:.2f})."
+            f"snooping test (|{sym}| > {d['data_snooping']['critical']:.2f}, "
+            f"{d['data_snooping']['description']})."
         )
+    for when in ("before", "after"):
+        gross = d["gross_control_points"][when]
+        if gross:
+            probs.append(
+                f"Gross control/check point(s) {when} the adjustment (most discrepant "
+                f"first): {', '.join(str(g) for g in gross[:10])}."
+            )
     add(f"      Problems related to the processing: ({len(probs)})")
     for s in probs:
         add(f"         {s}")
@@ -221,6 +270,17 @@ def report_text(result, data: dict | None = None) -> str:
         f"0 IO, {int(np.isfinite(net.eo_prior_std).sum())} EO, "
         f"{n_prior - int(np.isfinite(net.eo_prior_std).sum())} OP)"
     )
+    ctl = d.get("control_file")
+    if ctl:
+        add("      Control file:")
+        add(f"         File:    {ctl['source']}")
+        add(
+            f"         Layout:  {', '.join(ctl['layout'] or [])} "
+            f"({'from its header' if ctl['header'] else 'positional grammar'}); "
+            f"{ctl['n_control']} control, {ctl['n_check']} check points used"
+        )
+        for line in ctl["echo"]:
+            add(f"         {line}")
     add("      Processing options:")
     add(f"         Maximum # of iterations: {result.parameters.max_iterations}")
     add(f"         Convergence tolerance:   {result.parameters.tolerance:g}")
@@ -360,16 +420,85 @@ def report_text(result, data: dict | None = None) -> str:
             f"         RMS                  {grp['rms'][0]:.5f}  {grp['rms'][1]:.5f}  "
             f"{grp['rms'][2]:.5f}  (3D {grp['rms_3d']:.5f})"
         )
+    for when in ("before", "after"):
+        test = d["control_point_tests"][when]
+        if not test or not test["points"]:
+            continue
+        add(f"      Control/check points against their intersection ({when} the adjustment)")
+        add(
+            f"         chi2(3) critical value {test['critical']:.2f} at alpha {test['alpha']:g}, "
+            f"sigma {test['sigma']:.4g}; median |delta| {test['median_delta']:.4g} ou"
+        )
+        add("         id        label      role     rays  |delta| (ou)   T         gross")
+        for q in test["points"]:
+            add(
+                f"         {q['id']:<9} {q['label']:<10} {q['role']:<8} {q['rays']:<5} "
+                f"{q['delta_norm']:<14.5g} {_g(q['T']):<9} {'GROSS' if q['gross'] else ''}"
+            )
     ds = d["data_snooping"]
-    add("      Data snooping (Baarda w-test on image coordinates)")
-    add(f"         Critical value: {ds['critical_w']:.2f}; flagged observations: {ds['n_flagged']}")
+    sym = "tau" if ds["test"] == "tau" else "w"
+    add(f"      Data snooping ({ds['description']}) on image coordinates")
+    add(f"         Critical value: {ds['critical']:.2f}; flagged observations: {ds['n_flagged']}")
     for q in ds["worst"]:
         add(
-            f"            OP {q['point']} on image {q['image']}: |w| = {q['w']:.2f}, residual "
-            f"({q['residual_px'][0]:+.2f}, {q['residual_px'][1]:+.2f}) px"
+            f"            OP {q['point']} on image {q['image']}: |{sym}| = {q['statistic']:.2f}, "
+            f"residual ({q['residual_px'][0]:+.2f}, {q['residual_px'][1]:+.2f}) px"
         )
     add("End of result file")
     return "\n".join(L) + "\n"
+
+
+def failure_text(diagnosis: dict, project_name: str, message: str) -> str:
+    """Text report of a failed adjustment: what went wrong and where to look."""
+    L = ["Damped Bundle Adjustment Toolbox result file (pyheracles re-implementation)",
+         "   Project", f"      Name             : {project_name}",
+         "   Bundle adjustment FAILED", f"      Error: {message}",
+         f"      Status: {diagnosis.get('status', '')}",
+         f"      Iterations: {diagnosis.get('iterations')}",
+         f"      Datum: {diagnosis.get('datum')}",
+         f"      Redundancy: {diagnosis.get('redundancy')}",
+         f"      Sigma0 at the last iterate: {diagnosis.get('sigma0_last')}",
+         "      Residual norm per iteration: "
+         + ", ".join(f"{x:.6g}" for x in diagnosis.get("residual_norm_history", []))]  # fmt: skip
+    for x in diagnosis.get("rank_deficiency", []):
+        L.append(
+            f"      Rank defect (eigenvalue {x['eigenvalue']:.3g}): {', '.join(x['parameters'])}"
+        )
+    for when in ("before", "after"):
+        test = diagnosis.get(f"control_test_{when}") or {}
+        if test.get("gross"):
+            L.append(f"      Gross control/check points {when}: {test['gross']}")
+        for q in test.get("points", []):
+            L.append(
+                f"         {when:<6} {q['id']:<9} {q['label']:<10} |delta| {q['delta_norm']:.5g} "
+                f"T {_g(q['T'])}{' GROSS' if q['gross'] else ''}"
+            )
+    L.append("      Worst observations (weighted residual):")
+    for q in diagnosis.get("worst_observations", []):
+        L.append(
+            f"         OP {q['point']} ({q['label']}) on image {q['image']}: "
+            f"{q['weighted_residual']:.4g} ({q['residual_px'][0]:+.2f}, "
+            f"{q['residual_px'][1]:+.2f}) px"
+        )
+    L.append("End of result file")
+    return "\n".join(L) + "\n"
+
+
+def write_failure_report(diagnosis: dict, outdir: str | Path, project, message: str) -> dict:
+    """Write ``report.txt`` and ``report.json`` of a failed run (its diagnosis)."""
+    from pyheracles.io.atomic import atomic_write_json, atomic_write_text
+
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    data = {"project": project.name, "source": project.source, "converged": False,
+            "failed": True, "error": message, "control_file": project.meta.get("control"),
+            "diagnosis": diagnosis}  # fmt: skip
+    return {
+        "report_txt": atomic_write_text(
+            out / "report.txt", failure_text(diagnosis, project.name, message)
+        ),
+        "report_json": atomic_write_json(out / "report.json", data),
+    }
 
 
 def write_reports(result, outdir: str | Path, *, plots: bool = True) -> dict[str, Path]:
