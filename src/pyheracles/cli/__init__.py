@@ -40,6 +40,9 @@ COMMAND_MODULES: list[str] = [
     "pipeline",
     "report",
     "simulate",
+    "walls",
+    "roofs",
+    "export",
 ]
 
 app = typer.Typer(

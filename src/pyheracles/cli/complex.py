@@ -44,13 +44,17 @@ def register(app: typer.Typer) -> None:
         fix_invalid: bool = typer.Option(False, help="Repair invalid polygons (make_valid)."),
         cloud_crs: str = typer.Option(None, help="CRS of the cloud when its file has none."),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
+        cityjson: bool = typer.Option(
+            False, "--cityjson", help="Also write buildings.city.json (CityJSON 2.0, LoD1.2)."
+        ),
     ) -> None:
         """Split a complex into one object per GIS feature, plus ground and remainder.
 
         Writes into OUT: segmented.laz (every input point in input order, extra
         dimensions instance and class_id, ground as class 2), objects.gpkg (one row
-        per object with its GIS attributes), run.json; with --per-object one LAZ per
-        object in objects/.
+        per object with its GIS attributes), run.json, report.html; with --per-object
+        one LAZ per object in objects/; with --cityjson buildings.city.json (every object
+        with a footprint as a LoD1.2 Building carrying its GIS attributes).
 
         Example:
 
@@ -72,6 +76,14 @@ def register(app: typer.Typer) -> None:
                     cloud, layer, staging, params=params, reproject=reproject,
                     fix_invalid=fix_invalid, cloud_crs=cloud_crs, per_object=per_object,
                 )  # fmt: skip
+            if cityjson:
+                from pyheracles.cli.export import export_cityjson
+
+                with stage("CityJSON LoD1.2"):
+                    _, problems = export_cityjson(staging, staging / "buildings.city.json")
+                paths["cityjson"] = staging / "buildings.city.json"
+                for problem in problems:
+                    console.print(f"[yellow]warning:[/] CityJSON: {problem}", highlight=False)
             print_run_warnings(staging)
         paths = {k: out / v.relative_to(staging) for k, v in paths.items()}
         seg = result.segmentation

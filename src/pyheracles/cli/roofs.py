@@ -161,7 +161,7 @@ def register(app: typer.Typer) -> None:
         footprints: str = typer.Option(
             ..., "--footprints", "-f", help="Footprint layer PATH[:LAYERNAME]."
         ),
-        out: Path = typer.Option(..., "-o", "--out", help="Output folder."),
+        out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         min_height: float = typer.Option(1.0, help="Roof points above the ground, m."),
         percentile: float = typer.Option(70.0, help="LoD1.2 roof height percentile."),
         cloud_crs: str = typer.Option(None, help="CRS of the cloud when its file has none."),

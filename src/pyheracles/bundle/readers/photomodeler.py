@@ -115,7 +115,7 @@ def read_photomodeler(
             f"format in mm only ({defcam[3]:g} x {defcam[4]:g} mm)",
             path=path,
             hint="give the image size in pixels: --image-size WIDTHxHEIGHT "
-            "(read_photomodeler(..., image_size_px=(w, h)))",
+            "(in Python: read_photomodeler(..., image_size_px=(w, h)))",
         )
     if iw <= 0 or ih <= 0:
         raise InputError(f"image size {iw}x{ih} px is not positive", path=path)

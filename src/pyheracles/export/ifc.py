@@ -1,0 +1,459 @@
+"""IFC 4 export of step-2 results (supports, beams, walls) with ifcopenshell (extra ``bim``).
+
+:func:`export_ifc` reads an output folder of ``heracles supports``, ``heracles beams``
+or ``heracles walls`` (its objects table, ``segmented.laz`` and ``walls.json``) and
+writes one IFC 4 model:
+
+* IfcProject > IfcSite > IfcBuilding (one per step-1 object with its GIS attributes
+  in the property set ``Heracles_GIS`` when a step-1 folder is given, else one);
+  the site is georeferenced with IfcMapConversion + IfcProjectedCRS from the
+  cloud's CRS (the model's origin is the cloud's offset; no CRS: a local model and
+  a note).
+* Columns: IfcColumn (COLUMN) with an extruded circle along the fitted axis;
+  engaged columns: IfcColumn PILASTER; piers: IfcColumn with an extruded rectangle
+  (orientation from the pier's points).
+* Beams: IfcBeam (within 10 deg of horizontal) or IfcMember (BRACE when inclined,
+  POST when within 10 deg of vertical) with an extruded rectangle along the fitted
+  axis, the section turned as the beam's points.
+* Walls: IfcWall with its outline on its plane extruded over its thickness (a wall
+  seen on one face gets ``assumed_thickness_m``, said in its property set), its
+  windows and doors as IfcOpeningElement voids.
+
+Every element carries ``Heracles_Provenance``: instance id, point count, fit RMS,
+faces seen, tilt (or inclination) in degrees, and what its dimensions are.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pyheracles.errors import InputError
+
+__all__ = ["IfcReport", "export_ifc", "read_result_folder"]
+
+Array = np.ndarray
+
+
+@dataclass
+class IfcReport:
+    """What :func:`export_ifc` wrote: elements per IFC class, notes."""
+
+    path: Path
+    elements: dict[str, int] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    guids: dict[int, str] = field(default_factory=dict)
+
+
+def _require_ifcopenshell() -> Any:
+    try:
+        import ifcopenshell
+    except ImportError as exc:  # pragma: no cover - extra missing
+        raise InputError(
+            "IFC export needs ifcopenshell",
+            hint="pip install 'pyheracles[bim]' (or pip install ifcopenshell)",
+        ) from exc
+    return ifcopenshell
+
+
+def read_result_folder(folder: str | Path) -> tuple[str, pd.DataFrame, Any]:
+    """(step, objects table, cloud) of a step-2 output folder."""
+    from pyheracles.io import read_cloud
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("not a result folder", path=folder, hint="give an output folder")
+    run = folder / "run.json"
+    step = ""
+    if run.exists():
+        step = str(json.loads(run.read_text(encoding="utf-8")).get("step", ""))
+    table_path = next((folder / n for n in ("objects.csv", "objects.gpkg")
+                       if (folder / n).exists()), None)  # fmt: skip
+    if table_path is None or not (folder / "segmented.laz").exists():
+        raise InputError(
+            "no objects table and segmented.laz",
+            path=folder,
+            hint="give the output folder of heracles supports, beams or walls",
+        )
+    if table_path.suffix == ".csv":
+        objects = pd.read_csv(table_path)
+    else:
+        from pyheracles.io.vector import read_layer
+
+        objects = pd.DataFrame(read_layer(table_path, "objects")).drop(
+            columns=["geometry"], errors="ignore"
+        )
+    if step not in ("supports", "beams", "walls"):
+        cols = set(objects.columns)
+        step = ("walls" if "n_faces" in cols else "beams" if "inclination_deg" in cols
+                else "supports" if "radius_m" in cols else step)  # fmt: skip
+    if step not in ("supports", "beams", "walls"):
+        raise InputError(
+            f"cannot export a {step or 'unknown'!r} result to IFC",
+            path=folder,
+            hint="give the output folder of heracles supports, beams or walls",
+        )
+    cloud = read_cloud(folder / "segmented.laz")
+    return step, objects, cloud
+
+
+class _Writer:
+    """Small helpers over an ifcopenshell file (IFC4, metres)."""
+
+    def __init__(self, name: str) -> None:
+        _require_ifcopenshell()
+        import ifcopenshell.api
+
+        self.api = ifcopenshell.api
+        self.f = ifcopenshell.api.run("project.create_file", version="IFC4")
+        self.project = self.run("root.create_entity", ifc_class="IfcProject", name=name)
+        units = [
+            self.run("unit.add_si_unit", unit_type=t)  # metres, no prefix
+            for t in ("LENGTHUNIT", "AREAUNIT", "VOLUMEUNIT", "PLANEANGLEUNIT")
+        ]
+        self.run("unit.assign_unit", units=units)
+        self.model = self.run("context.add_context", context_type="Model")
+        self.body = self.run("context.add_context", context_type="Model",
+                             context_identifier="Body", target_view="MODEL_VIEW",
+                             parent=self.model)  # fmt: skip
+
+    def run(self, usecase: str, **kw: Any) -> Any:
+        return self.api.run(usecase, self.f, **kw)
+
+    def point(self, p: Any) -> Any:
+        return self.f.createIfcCartesianPoint([float(v) for v in p])
+
+    def direction(self, d: Any) -> Any:
+        d = np.asarray(d, dtype=np.float64)
+        return self.f.createIfcDirection([float(v) for v in d / np.linalg.norm(d)])
+
+    def placement(self, origin: Any, z: Any, x: Any, rel: Any = None) -> Any:
+        z = np.asarray(z, dtype=np.float64)
+        z = z / np.linalg.norm(z)
+        x = np.asarray(x, dtype=np.float64)
+        x = x - (x @ z) * z
+        ax = self.f.createIfcAxis2Placement3D(self.point(origin), self.direction(z),
+                                              self.direction(x))  # fmt: skip
+        return self.f.createIfcLocalPlacement(rel, ax)
+
+    def solid(self, profile: Any, depth: float, start: float = 0.0) -> Any:
+        pos = self.f.createIfcAxis2Placement3D(self.point((0.0, 0.0, start)), None, None)
+        return self.f.createIfcExtrudedAreaSolid(profile, pos, self.direction((0, 0, 1)),
+                                                 float(depth))  # fmt: skip
+
+    def shape(self, solids: list[Any]) -> Any:
+        rep = self.f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", solids)
+        return self.f.createIfcProductDefinitionShape(None, None, [rep])
+
+    def profile_2d(self) -> Any:
+        return self.f.createIfcAxis2Placement2D(self.f.createIfcCartesianPoint([0.0, 0.0]),
+                                                None)  # fmt: skip
+
+    def rectangle(self, x: float, y: float) -> Any:
+        return self.f.createIfcRectangleProfileDef("AREA", None, self.profile_2d(),
+                                                   float(x), float(y))  # fmt: skip
+
+    def circle(self, r: float) -> Any:
+        return self.f.createIfcCircleProfileDef("AREA", None, self.profile_2d(), float(r))
+
+    def polygon(self, ring: Array) -> Any:
+        pts = [self.f.createIfcCartesianPoint([float(a), float(b)]) for a, b in ring]
+        pts.append(pts[0])
+        return self.f.createIfcArbitraryClosedProfileDef(
+            "AREA", None, self.f.createIfcPolyline(pts)
+        )
+
+    def element(self, ifc_class: str, name: str, placement: Any, shape: Any,
+                predefined: str | None, container: Any) -> Any:  # fmt: skip
+        el = self.run("root.create_entity", ifc_class=ifc_class, name=name,
+                      predefined_type=predefined)  # fmt: skip
+        el.ObjectPlacement = placement
+        el.Representation = shape
+        self.run("spatial.assign_container", products=[el], relating_structure=container)
+        return el
+
+    def pset(self, product: Any, name: str, props: dict[str, Any]) -> None:
+        clean = {}
+        for k, v in props.items():
+            if v is None or (isinstance(v, float) and not math.isfinite(v)):
+                continue
+            if isinstance(v, np.generic):
+                v = v.item()
+            clean[k] = v
+        pset = self.run("pset.add_pset", product=product, name=name)
+        self.run("pset.edit_pset", pset=pset, properties=clean)
+
+
+def _georeference(w: _Writer, crs: Any, offset: Array, notes: list[str]) -> None:
+    if crs is None:
+        notes.append("the cloud has no CRS: the model is in a local frame (no IfcMapConversion)")
+        return
+    from pyproj import CRS
+
+    c = CRS.from_user_input(crs)
+    epsg = c.to_epsg()
+    name = f"EPSG:{epsg}" if epsg else c.name
+    if not c.is_projected:
+        notes.append(f"the CRS {name} is not projected: IfcProjectedCRS written as given")
+    datum = c.datum.name if c.datum is not None else None
+    target = w.f.createIfcProjectedCRS(Name=name, Description=c.name, GeodeticDatum=datum)
+    w.f.createIfcMapConversion(
+        SourceCRS=w.model, TargetCRS=target, Eastings=float(offset[0]),
+        Northings=float(offset[1]), OrthogonalHeight=float(offset[2]),
+        XAxisAbscissa=1.0, XAxisOrdinate=0.0, Scale=1.0,
+    )  # fmt: skip
+
+
+def _points_of(cloud: Any, instance: int) -> Array:
+    inst = np.asarray(cloud.attributes.get("instance", np.zeros(len(cloud.xyz))))
+    return cloud.xyz[inst == instance]
+
+
+def _rect_direction(xy: Array) -> Array:
+    """Unit direction of the long side of the points' minimum-area rectangle."""
+    from pyheracles.geometry.fitting import min_area_rectangle
+
+    if len(xy) < 3:
+        return np.array([1.0, 0.0])
+    try:
+        _, _, axes = min_area_rectangle(xy)
+        a = np.asarray(axes, dtype=np.float64).reshape(2, 2)
+        return a[0] / np.linalg.norm(a[0])
+    except Exception:  # degenerate points: the principal direction
+        c = xy - xy.mean(axis=0)
+        return np.linalg.svd(c, full_matrices=False)[2][0]
+
+
+def _unit(v: Array) -> Array | None:
+    v = np.asarray(v, dtype=np.float64)
+    n = float(np.linalg.norm(v))
+    return None if not math.isfinite(n) or n == 0 else v / n
+
+
+def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
+              rep: IfcReport) -> None:  # fmt: skip
+    off = np.asarray(cloud.offset, dtype=np.float64)
+    for _, r in objects.iterrows():
+        inst, cls = int(r["instance"]), str(r["class"])
+        if cls not in ("column", "pier", "engaged_column"):
+            continue
+        base = np.array([r["x"], r["y"], r["z_min"]], dtype=np.float64) - off
+        height = float(r.get("box_height_m", np.nan)) if cls == "pier" else np.nan
+        if not math.isfinite(height):
+            height = float(r["height_m"])
+        pts = _points_of(cloud, inst)
+        if cls == "pier":
+            length, width = float(r["box_length_m"]), float(r["box_width_m"])
+            if not (math.isfinite(length) and math.isfinite(width)):
+                rep.notes.append(f"support {inst}: no box fitted, not written")
+                continue
+            d = _rect_direction(pts[:, :2])
+            place = w.placement(base, (0, 0, 1), (d[0], d[1], 0.0))
+            shape = w.shape([w.solid(w.rectangle(length, width), height)])
+            predefined, dims = "COLUMN", {"length_m": length, "width_m": width}
+            tilt = 0.0
+        else:
+            radius = float(r["radius_m"])
+            axis = _unit([r["axis_x"], r["axis_y"], r["axis_z"]])
+            if not math.isfinite(radius) or axis is None:
+                rep.notes.append(f"support {inst}: no cylinder fitted, not written")
+                continue
+            axis = axis if axis[2] >= 0 else -axis
+            tilt = math.degrees(math.acos(min(1.0, abs(float(axis[2])))))
+            x = np.cross(axis, [0.0, 1.0, 0.0]) if abs(axis[0]) < 0.9 else np.cross(axis, [0, 0, 1])
+            place = w.placement(base, axis, x)
+            shape = w.shape([w.solid(w.circle(radius), height / max(abs(axis[2]), 1e-6))])
+            predefined = "PILASTER" if cls == "engaged_column" else "COLUMN"
+            dims = {"radius_m": radius}
+        el = w.element("IfcColumn", f"{cls} {inst}", place, shape, predefined, container)
+        w.pset(el, "Heracles_Provenance", {
+            "instance": inst, "class": cls, "n_points": int(r["n_points"]),
+            "fit_rms_m": float(r["fit_rms_m"]), "faces_seen": "all round" if
+            cls == "column" else "partly (engaged)" if cls == "engaged_column" else "sides",
+            "tilt_deg": tilt, "height_m": height, **dims,
+            "circularity": float(r.get("circularity", np.nan)),
+        })  # fmt: skip
+        rep.guids[inst] = el.GlobalId
+        rep.elements["IfcColumn"] = rep.elements.get("IfcColumn", 0) + 1
+
+
+def _beams(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
+           rep: IfcReport) -> None:  # fmt: skip
+    off = np.asarray(cloud.offset, dtype=np.float64)
+    for _, r in objects.iterrows():
+        inst = int(r["instance"])
+        axis = _unit([r["axis_x"], r["axis_y"], r["axis_z"]])
+        length, width, height = (float(r[k]) for k in ("length_m", "width_m", "height_m"))
+        if axis is None or not all(math.isfinite(v) for v in (length, width, height)):
+            rep.notes.append(f"beam {inst}: no cuboid fitted, not written")
+            continue
+        centre = np.array([r["centre_x"], r["centre_y"], r["centre_z"]], dtype=np.float64)
+        centre -= off
+        incl = float(r.get("inclination_deg", math.degrees(math.asin(min(1, abs(axis[2]))))))
+        # the section's width direction: the points' spread across the axis
+        pts = _points_of(cloud, inst)
+        helper = np.array([0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.array([1.0, 0, 0])
+        e1 = np.cross(helper, axis)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(axis, e1)
+        xdir = e1
+        if len(pts) >= 3:
+            q = pts - centre
+            d = _rect_direction(np.c_[q @ e1, q @ e2])
+            cand = d[0] * e1 + d[1] * e2  # long side of the section
+            other = np.cross(axis, cand)
+            # x of the profile along the width: the long side when width >= height
+            xdir = cand if width >= height else other
+        place = w.placement(centre - 0.5 * length * axis, axis, xdir)
+        shape = w.shape([w.solid(w.rectangle(width, height), length)])
+        if incl <= 10.0:
+            cls, predefined = "IfcBeam", "BEAM"
+        elif incl >= 80.0:
+            cls, predefined = "IfcMember", "POST"
+        else:
+            cls, predefined = "IfcMember", "BRACE"
+        el = w.element(cls, f"beam {inst}", place, shape, predefined, container)
+        w.pset(el, "Heracles_Provenance", {
+            "instance": inst, "class": str(r["class"]), "n_points": int(r["n_points"]),
+            "fit_rms_m": float(r["rms_m"]), "faces_seen": int(r.get("n_facets", 0)),
+            "inclination_deg": incl, "length_m": length, "width_m": width,
+            "height_m": height,
+        })  # fmt: skip
+        rep.guids[inst] = el.GlobalId
+        rep.elements[cls] = rep.elements.get(cls, 0) + 1
+
+
+def _walls(w: _Writer, folder: Path, cloud: Any, container: Any, rep: IfcReport) -> None:
+    path = folder / "walls.json"
+    if not path.exists():
+        raise InputError("no walls.json", path=folder, hint="rerun heracles walls")
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    off = np.asarray(cloud.offset, dtype=np.float64)
+    for j in doc.get("walls", []):
+        inst = int(j["instance"])
+        n = np.asarray(j["normal"], dtype=np.float64)
+        u = np.asarray(j["u_axis"], dtype=np.float64)
+        origin = np.asarray(j["origin"], dtype=np.float64) - off
+        measured = bool(j["thickness_measured"])
+        t = float(j["thickness_m"]) if measured else float(j["assumed_thickness_m"])
+        side = int(j.get("material_side", 0))
+        start = -0.5 * t if measured or side == 0 else (0.0 if side > 0 else -t)
+        ring = np.asarray(j["outline_uz"], dtype=np.float64) - [0.0, off[2]]
+        place = w.placement(origin, n, u)
+        shape = w.shape([w.solid(w.polygon(ring), t, start)])
+        el = w.element("IfcWall", f"wall {inst}", place, shape, "SOLIDWALL", container)
+        tilt = math.degrees(math.asin(min(1.0, abs(float(n[2])))))
+        w.pset(el, "Heracles_Provenance", {
+            "instance": inst, "class": "wall", "n_points": int(j["n_points"]),
+            "fit_rms_m": float(j["fit_rms_m"]), "faces_seen": len(j["faces"]),
+            "tilt_deg": tilt, "thickness_m": t, "thickness_measured": measured,
+            "length_m": float(j["length_m"]), "height_m": float(j["height_m"]),
+            "n_openings": len(j["openings"]),
+        })  # fmt: skip
+        for k, o in enumerate(j["openings"], start=1):
+            poly = np.asarray(o["polygon_uz"], dtype=np.float64) - [0.0, off[2]]
+            op_shape = w.shape([w.solid(w.polygon(poly), t + 0.2, start - 0.1)])
+            opening = w.run("root.create_entity", ifc_class="IfcOpeningElement",
+                            name=f"wall {inst} {o['kind']} {k}",
+                            predefined_type="OPENING")  # fmt: skip
+            opening.ObjectPlacement = w.placement(origin, n, u)
+            opening.Representation = op_shape
+            try:
+                w.run("feature.add_feature", feature=opening, element=el)
+            except Exception:  # pragma: no cover - older ifcopenshell
+                w.run("void.add_opening", opening=opening, element=el)
+            w.pset(opening, "Heracles_Opening", {
+                "kind": str(o["kind"]), "width_m": float(o["width_m"]),
+                "height_m": float(o["height_m"]),
+            })  # fmt: skip
+            rep.elements["IfcOpeningElement"] = rep.elements.get("IfcOpeningElement", 0) + 1
+        rep.guids[inst] = el.GlobalId
+        rep.elements["IfcWall"] = rep.elements.get("IfcWall", 0) + 1
+
+
+def _buildings(w: _Writer, site: Any, step1: str | Path | None,
+               rep: IfcReport) -> list[tuple[Any, Any]]:  # fmt: skip
+    """(IfcBuilding, footprint or None) pairs."""
+    if step1 is None:
+        b = w.run("root.create_entity", ifc_class="IfcBuilding", name="building")
+        w.run("aggregate.assign_object", products=[b], relating_object=site)
+        return [(b, None)]
+    from pyheracles.io.vector import read_layer
+
+    path = Path(step1) / "objects.gpkg"
+    if not path.exists():
+        raise InputError("no objects.gpkg", path=step1, hint="give a heracles complex folder")
+    layer = read_layer(path, "objects")
+    out = []
+    for _, row in layer.iterrows():
+        name = str(row.get("name", "") or f"object {row.get('instance', len(out) + 1)}")
+        b = w.run("root.create_entity", ifc_class="IfcBuilding", name=name)
+        w.run("aggregate.assign_object", products=[b], relating_object=site)
+        geom = layer.geometry.name
+        props = {str(k): (v if isinstance(v, bool | int | float | str) else str(v))
+                 for k, v in row.items() if k != geom and not pd.isna(v)}  # fmt: skip
+        w.pset(b, "Heracles_GIS", props)
+        out.append((b, row.geometry))
+    if not out:
+        rep.notes.append(f"{path} has no objects: one building written")
+        return _buildings(w, site, None, rep)
+    return out
+
+
+def export_ifc(result_dir: str | Path, out: str | Path, *, step1_dir: str | Path | None = None,
+               name: str | None = None) -> IfcReport:  # fmt: skip
+    """Write the elements of a step-2 output folder as an IFC 4 model.
+
+    Parameters
+    ----------
+    result_dir
+        Output folder of ``heracles supports``, ``heracles beams`` or ``heracles walls``.
+    out
+        IFC file to write (atomically).
+    step1_dir
+        Optional ``heracles complex`` folder: one IfcBuilding per object, its GIS
+        attributes in ``Heracles_GIS``; elements go into the building whose footprint
+        holds them.
+
+    Returns
+    -------
+    IfcReport
+    """
+    import shapely
+
+    from pyheracles.io.atomic import atomic_path
+
+    folder = Path(result_dir)
+    step, objects, cloud = read_result_folder(folder)
+    rep = IfcReport(Path(out))
+    w = _Writer(name or f"pyheracles {step}: {folder.name}")
+    site = w.run("root.create_entity", ifc_class="IfcSite", name="site")
+    w.run("aggregate.assign_object", products=[site], relating_object=w.project)
+    _georeference(w, cloud.crs, np.asarray(cloud.offset, dtype=np.float64), rep.notes)
+    buildings = _buildings(w, site, step1_dir, rep)
+    container = buildings[0][0]
+    if len(buildings) > 1 and len(objects):
+        xy = np.c_[objects.get("x", objects.get("centre_x", 0)),
+                   objects.get("y", objects.get("centre_y", 0))]  # fmt: skip
+        centre = shapely.Point(np.nanmean(xy, axis=0))
+        for b, fp in buildings:
+            if fp is not None and fp.contains(centre):
+                container = b
+                break
+    if step == "supports":
+        _supports(w, objects, cloud, container, rep)
+    elif step == "beams":
+        _beams(w, objects, cloud, container, rep)
+    else:
+        _walls(w, folder, cloud, container, rep)
+    if not rep.elements:
+        rep.notes.append(f"no elements in {folder}: the model holds the site and building only")
+    with atomic_path(Path(out)) as tmp:
+        w.f.write(str(tmp))
+    return rep
