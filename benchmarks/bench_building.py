@@ -10,12 +10,29 @@ Targets (issue 3), measured on the four generated building scenes with reference
 * 3.5 M points in <= 10 s (thesis: Valentino, 3.5 M points in 308 s).
 
 Run ``python benchmarks/bench_building.py`` (``--quick`` for one seed at a coarser
-spacing).  Prints one JSON line per measurement.  Timings are noisy on a shared
-machine: the 3.5 M point run is repeated (``--repeats``, default 3) and ``time_s`` is the
-best wall time, ``cpu_s`` the best process CPU time (close to the wall time on an idle
-machine: the pipeline is single-threaded apart from the KD-tree queries), with every run
-and the load average alongside; ``reference_s`` times a fixed numpy/scipy workload (sort
-3.5 M floats + KD-tree on 1 M points) in the same run so that ratios can be compared.
+spacing).
+
+``--sweep N [--first-seed S]`` instead runs the current step over N draws of the
+``supports`` scene family (seeds S..S+N-1, :mod:`pyheracles.synthetic.families.supports`)
+and scores them against issue 12's targets with
+:func:`pyheracles.synthetic.families.supports_score.score_supports`: per draw the
+support count exact AND every class right AND median per-support F1 >= 0.95 (``main``),
+column radii within 1 cm (at the section height), tilt of leaning columns within
+0.3 deg (from the fitted cylinder axis ``axis_x/y/z``), pier boxes within 2 cm.  Found
+supports are matched to true ones by point overlap; outlier points (gross errors and
+mixed pixels of the simulator) are left out of the scoring.  One JSON line per draw,
+then a summary line (share of draws meeting every target, per-target shares, the worst
+draw, failure modes by number of draws).  ``--diagnose`` re-runs a failing draw
+without its outlier points (does an outlier move the section?), ``--gen-only`` only
+times the generation, ``--set KEY=VALUE`` fixes family parameters, ``--jsonl FILE``
+also writes the lines to a file.
+
+Prints one JSON line per measurement.  Timings are noisy on a shared machine: the
+3.5 M point run is repeated (``--repeats``, default 3) and ``time_s`` is the best wall
+time, ``cpu_s`` the best process CPU time (close to the wall time on an idle machine: the
+pipeline is single-threaded apart from the KD-tree queries), with every run and the load
+average alongside; ``reference_s`` times a fixed numpy/scipy workload (sort 3.5 M floats
++ KD-tree on 1 M points) in the same run so that ratios can be compared.
 """
 
 from __future__ import annotations
@@ -85,7 +102,40 @@ def main() -> None:
     ap.add_argument("--spacing", type=float, default=0.03, help="surface spacing, m")
     ap.add_argument("--repeats", type=int, default=3, help="runs of the 3.5 M point timing")
     ap.add_argument("--speed-only", action="store_true", help="only the 3.5 M point timing")
+    ap.add_argument(
+        "--sweep",
+        type=int,
+        default=0,
+        metavar="N",
+        help="score N draws of the supports family instead",
+    )
+    ap.add_argument("--first-seed", type=int, default=0, metavar="S", help="first draw")
+    ap.add_argument(
+        "--diagnose", action="store_true", help="sweep: re-run failing draws without their outliers"
+    )
+    ap.add_argument("--gen-only", action="store_true", help="sweep: only time the generation")
+    ap.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="sweep: fix a family parameter (repeatable)",
+    )
+    ap.add_argument("--jsonl", type=Path, default=None, help="sweep: also write the lines here")
     args = ap.parse_args()
+    if args.sweep:
+        from pyheracles.cli.simulate import parse_overrides
+
+        sweep(
+            args.sweep,
+            args.first_seed,
+            parse_overrides(args.overrides),
+            diagnose=args.diagnose,
+            gen_only=args.gen_only,
+            jsonl=args.jsonl,
+        )
+        return
     seeds = 1 if args.quick else args.seeds
     spacing = 0.05 if args.quick else args.spacing
 
@@ -144,6 +194,233 @@ def _emit_speed(repeats: int, ref_s: float) -> None:
          cpu_s=cpu, wall_runs_s=walls, cpu_runs_s=cpus, load_avg_1min=os.getloadavg()[0],
          reference_s=ref_s, time_over_reference=wall / ref_s,
          n_supports_found=len(found.objects), peak_rss_gb=peak_rss_gb())  # fmt: skip
+
+
+# ------------------------------------------------------------------------------ sweep
+SWEEP_KEYS = (
+    "layout",
+    "state",
+    "column_radius_m",
+    "shaft_style",
+    "n_supports",
+    "ceiling",
+    "attic",
+    "survey",
+    "n_stations_inside",
+    "n_stations_outside",
+    "tls_step_deg",
+    "noise_m",
+    "outlier_share",
+    "outlier_below_m",
+    "twin_share",
+    "pier_share",
+    "engaged",
+    "broken_share",
+    "leaning_share",
+    "clutter",
+    "platform_m",
+)
+
+
+def score_draw(sim, *, diagnose: bool = False) -> dict:
+    """Run the current step on one family draw and score it (see the module doc)."""
+    from pyheracles.synthetic.families.supports_score import score_supports
+
+    res = sim.clouds["cloud"]
+    cpu0 = time.process_time()
+    with timer() as t:
+        seg, found, split, _ = segment_building(res.xyz)
+    step_cpu = time.process_time() - cpu0
+    m = score_supports(
+        sim,
+        found.instance,
+        found.objects,
+        section_height=found.section_height,
+        attic_mask=seg.class_id == 2,
+    )
+    floor = float(sim.params.get("floor_z_m", 0.0))
+    m.update(
+        step_s=t.s,
+        step_cpu_s=step_cpu,
+        section_height_m=found.section_height,
+        section_above_floor_m=found.section_height - floor,
+        lowest_point_below_floor_m=floor - float(res.xyz[:, 2].min()),
+        outlier_depth_m=float(res.xyz[~res.outlier, 2].min() - res.xyz[:, 2].min()),
+        attic_limit_m=split.limit_z,
+        notes=list(found.notes),
+    )
+    if diagnose and not m["pass"]["all"]:
+        clean = ~res.outlier
+        seg2, found2, _, _ = segment_building(res.xyz[clean])
+        inst = np.zeros(len(res), np.int32)
+        inst[clean] = found2.instance
+        attic = np.zeros(len(res), bool)
+        attic[clean] = seg2.class_id == 2
+        m2 = score_supports(
+            sim, inst, found2.objects, section_height=found2.section_height, attic_mask=attic
+        )
+        m["without_outliers"] = {
+            "pass": m2["pass"],
+            "median_f1": m2["median_f1"],
+            "n_supports_found": m2["n_supports_found"],
+            "section_height_m": found2.section_height,
+            "failure_modes": m2["failure_modes"],
+        }
+    return m
+
+
+def sweep(
+    n: int, first: int, overrides: dict, *, diagnose: bool, gen_only: bool, jsonl: Path | None
+) -> None:
+    """Score ``n`` draws of the supports family; one JSON line each, then a summary."""
+    import json
+
+    from pyheracles.synthetic.families import simulate
+
+    fh = open(jsonl, "w") if jsonl else None
+    lines = []
+
+    def out(**rec) -> None:
+        r = emit(**rec)
+        if fh:
+            fh.write(json.dumps(r) + "\n")
+            fh.flush()
+        lines.append(r)
+
+    for seed in range(first, first + n):
+        cpu0 = time.process_time()
+        with timer() as t:
+            sim = simulate("supports", seed, **overrides)
+        gen = {
+            "gen_s": t.s,
+            "gen_cpu_s": time.process_time() - cpu0,
+            "n_points": len(sim.clouds["cloud"]),
+        }
+        params = {k: sim.params.get(k) for k in SWEEP_KEYS}
+        if gen_only:
+            out(dataset=f"supports:seed{seed}", metric="generation", seed=seed, **params, **gen)
+            continue
+        m = score_draw(sim, diagnose=diagnose)
+        out(
+            dataset=f"supports:seed{seed}",
+            metric="supports",
+            value=m["median_f1"],
+            seed=seed,
+            **params,
+            **gen,
+            **m,
+        )
+    _sweep_summary(lines, gen_only, out)
+    if fh:
+        fh.close()
+
+
+def _step_source() -> dict:
+    """Which step code ran: the module file and the git commit (and whether it is dirty)."""
+    import hashlib
+    import subprocess
+
+    import pyheracles.building as step
+
+    src = Path(step.__file__).resolve()
+    info: dict = {"step_module": str(src)}
+    for name in ("building.py", "supports.py"):  # git blob ids: compare with git ls-tree
+        data = (src.parent / name).read_bytes()
+        blob = hashlib.sha1(b"blob %d\0" % len(data) + data, usedforsecurity=False)
+        info[f"blob_{name}"] = blob.hexdigest()[:12]
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(src.parent), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+        )
+        dirty = subprocess.run(
+            [
+                "git",
+                "-C",
+                str(src.parent),
+                "status",
+                "--porcelain",
+                "--",
+                "building.py",
+                "supports.py",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+        )
+        if head.returncode == 0:
+            info["git_head"] = head.stdout.strip()
+            info["step_modified_since_head"] = bool(dirty.stdout.strip())
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return info
+
+
+def _sweep_summary(lines: list[dict], gen_only: bool, out) -> None:
+    gen = [r["gen_s"] for r in lines]
+    gen_cpu = [r["gen_cpu_s"] for r in lines]
+    summary = {
+        "dataset": "supports:sweep",
+        "metric": "summary",
+        "draws": len(lines),
+        "gen_total_s": float(np.sum(gen)),
+        "gen_mean_s": float(np.mean(gen)),
+        "gen_max_s": float(np.max(gen)),
+        "gen_cpu_total_s": float(np.sum(gen_cpu)),
+        "n_points_median": float(np.median([r["n_points"] for r in lines])),
+        "load_avg_1min": os.getloadavg()[0],
+        **_step_source(),
+    }
+    if not gen_only:
+        targets = ("count", "class", "f1", "radius", "tilt", "pier_box", "main", "all")
+        shares = {}
+        for k in targets:
+            vals = [r["pass"][k] for r in lines if r["pass"][k] is not None]
+            shares[k] = float(np.mean(vals)) if vals else None
+        missed = [
+            f["section_points"]
+            for r in lines
+            for f in r["failures"]
+            if f["mode"] in ("missed", "broken_missed") and "section_points" in f
+        ]
+        modes: dict[str, int] = {}
+        for r in lines:
+            for mode in r["failure_modes"]:
+                modes[mode] = modes.get(mode, 0) + 1
+        worst = min(
+            lines,
+            key=lambda r: (  # fewest targets met, then lowest F1, then fewest supports found
+                sum(bool(v) for v in r["pass"].values()),
+                r["median_f1"] if np.isfinite(r["median_f1"]) else -1,
+                r.get("found_share", 0.0),
+            ),
+        )
+        summary.update(
+            value=shares["all"],
+            share_all_targets=shares["all"],
+            share_main_target=shares["main"],
+            pass_shares=shares,
+            measured_draws={k: sum(r["pass"][k] is not None for r in lines) for k in targets},
+            median_f1_median=float(np.nanmedian([r["median_f1"] for r in lines])),
+            worst_seed=worst["seed"],
+            worst_median_f1=worst["median_f1"],
+            worst_found_share=worst.get("found_share"),
+            missed_supports=len(missed),
+            missed_with_under_50_section_points=(
+                float(np.mean(np.array(missed) < 50)) if missed else None
+            ),
+            found_share_median=float(np.nanmedian([r.get("found_share", np.nan) for r in lines])),
+            worst_failure_modes=worst["failure_modes"],
+            failure_modes_draws=dict(sorted(modes.items(), key=lambda kv: -kv[1])),
+            tilt_measured_from="the fitted cylinder axis (objects axis_x/y/z)",
+            outliers="excluded from the scoring",
+            step_s_mean=float(np.mean([r["step_s"] for r in lines])),
+        )
+    out(**summary)
 
 
 if __name__ == "__main__":
