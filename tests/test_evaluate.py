@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import shapely
+import shapely.affinity
 from shapely.geometry import box
 
 from pyheracles.errors import InputError
@@ -402,3 +403,106 @@ def test_cli_evaluate_delft_polygons(shared_data, tmp_path):
     np.testing.assert_allclose(scored["precision"].dropna(), 1.0)
     assert (scored["recall"] <= 1.0).all() and scored["recall"].mean() > 0.8
     assert laspy.read(res / "segmented.laz").header.point_count == len(cloud)
+
+
+# ----------------------------------------------------------------------------- issue 15
+@pytest.fixture
+def two_buildings(tmp_path):
+    """Reference cloud (UTM 32N, class 6 on two roofs) and a result cloud of the same points."""
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import write_cloud
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 60, (8000, 2))
+    a = (np.abs(xy - [15, 15]) < 5).all(axis=1)
+    b = (np.abs(xy - [45, 40]) < 6).all(axis=1)
+    z = np.where(a | b, 6.0, 0.0)
+    origin = np.array([500_000.0, 5_400_000.0, 100.0])
+    cls = np.where(a | b, 6, 2).astype(np.uint8)
+    cloud = PointCloud.from_world(np.c_[xy, z] + origin, crs="EPSG:32632")
+    cloud = cloud.with_attributes(classification=cls)
+    ref = write_cloud(cloud, tmp_path / "ref.laz")
+    res = write_cloud(cloud, tmp_path / "res" / "segmented.laz",
+                      {"instance": (a * 1 + b * 2).astype(np.int32)})  # fmt: skip
+    polys = [shapely.box(10, 10, 20, 20), shapely.box(39, 34, 51, 46)]
+    polys = [shapely.affinity.translate(p, *origin[:2]) for p in polys]
+    return ref, res, polys
+
+
+def test_cli_reference_polygons_in_another_crs(two_buildings, tmp_path, capsys):
+    """Issue 15, defect 8: polygons in another CRS gave an IndexError; now step 1's error,
+    or a reprojection with a note when --reproject is given."""
+    import geopandas as gpd
+
+    from pyheracles.cli import main
+
+    ref, res, polys = two_buildings
+    gdf = gpd.GeoDataFrame({"name": ["A", "B"]}, geometry=polys, crs=32632).to_crs(4326)
+    gdf.to_file(tmp_path / "wgs84.gpkg", driver="GPKG")
+    args = [
+        "evaluate",
+        str(res),
+        "-r",
+        str(ref),
+        "--reference-polygons",
+        str(tmp_path / "wgs84.gpkg"),
+    ]
+    assert main(args) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "layer CRS EPSG:4326 differs from the cloud's EPSG:32632" in err
+    assert "--reproject" in err
+    assert main([*args, "--reproject"]) == 0
+    out = capsys.readouterr().out
+    assert "reprojected from EPSG:4326 to EPSG:32632" in " ".join(out.split())
+    table = pd.read_csv(res.parent / "evaluation.csv").iloc[:-2]
+    np.testing.assert_allclose(table["f1"], 1.0)
+    # a cloud without CRS and polygons somewhere else: the overlap check, no IndexError
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import read_cloud, write_cloud
+
+    full = read_cloud(ref)
+    plain = PointCloud.from_world(full.world_xyz()).with_attributes(
+        classification=np.asarray(full.attributes["classification"])
+    )
+    plain = write_cloud(plain, tmp_path / "nocrs.laz")
+    assert read_cloud(plain).crs is None
+    assert main(["evaluate", str(res), "-r", str(plain), "--reference-polygons",
+                 str(tmp_path / "wgs84.gpkg")]) == 2  # fmt: skip
+    assert "no polygon overlaps the cloud" in " ".join(capsys.readouterr().err.split())
+
+
+def test_cli_self_intersecting_reference_polygons_are_refused(two_buildings, tmp_path, capsys):
+    import geopandas as gpd
+
+    from pyheracles.cli import main
+
+    ref, res, polys = two_buildings
+    x0, y0 = 500_010.0, 5_400_010.0
+    bowtie = shapely.Polygon([(x0, y0), (x0 + 10, y0 + 10), (x0 + 10, y0), (x0, y0 + 10)])
+    gdf = gpd.GeoDataFrame({"name": ["A", "B"]}, geometry=[bowtie, polys[1]], crs=32632)
+    gdf.to_file(tmp_path / "bowtie.gpkg", driver="GPKG")
+    args = [
+        "evaluate",
+        str(res),
+        "-r",
+        str(ref),
+        "--reference-polygons",
+        str(tmp_path / "bowtie.gpkg"),
+    ]
+    assert main(args) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "1 invalid polygons (rows [0]: Self-intersection" in err and "--fix-invalid" in err
+    assert main([*args, "--fix-invalid"]) == 0
+    # the library function says the same
+    with pytest.raises(InputError, match="1 invalid polygons"):
+        reference_from_polygons(np.zeros((3, 2)), np.ones(3, bool), [bowtie])
+
+
+def test_reference_from_polygons_that_miss_every_point():
+    """No point in any polygon (another CRS, another area): all 0, not an IndexError."""
+    labels = reference_from_polygons(
+        [[0.5, 0.5], [1.5, 0.5]], [True, True], [box(100, 100, 101, 101)], buffer_m=0.0
+    )
+    assert labels.tolist() == [0, 0]
+    labels = reference_from_polygons([[0.5, 0.5]], [True], [box(100, 100, 101, 101)])
+    assert labels.tolist() == [0]

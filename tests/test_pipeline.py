@@ -68,7 +68,7 @@ def test_config_errors(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="missing keys: layers, output"):
         load_config(bad)
     bad.write_text("cloud: a.laz\nlayers: {b: x.gpkg}\noutput: o\ncomplex: {buffer: 2}\n")
-    with pytest.raises(InputError, match=r"unknown complex parameters \['buffer'\]"):
+    with pytest.raises(InputError, match=r"unknown key 'buffer' in complex \(did you mean 'buf"):
         load_config(bad)
     with pytest.raises(InputError, match="unknown step-2 analysis 'walls'"):
         Step2Spec(step="walls")
@@ -88,3 +88,116 @@ def test_step2_beams_on_a_roof_object() -> None:
     assert set(seg.objects["class"]) == {"beam"}
     # object positions are in the world frame
     assert seg.objects["centre_x"].between(499_990, 500_100).all()
+
+
+def test_config_typos_and_types_are_reported_together_before_any_work(tmp_path: Path) -> None:
+    """Issue 15, defect 6: typos and wrong types in the YAML, all in one message."""
+    bad = tmp_path / "run.yml"
+    bad.write_text(
+        "cloud: site.laz\n"
+        "layers: {building: fp.gpkg}\n"
+        "output: out\n"
+        "complx: {ground: auto}\n"
+        'complex: {buffer_m: "two", ground: csf}\n'
+        "step2:\n"
+        "  - select: {class: building, min_hieght_m: 4}\n"
+        "    step: supports\n"
+        "  - select: {min_height_m: tall, names: [Pendopo, 12]}\n"
+        "    step: beams\n"
+    )
+    with pytest.raises(InputError) as err:
+        load_config(bad)
+    text = str(err.value)
+    assert text.startswith(f"{bad}: 4 problems in the configuration")
+    assert "unknown key 'complx' at the top level (did you mean 'complex'?)" in text
+    assert "complex.buffer_m: expected a number" in text and "got 'two'" in text
+    assert "unknown key 'min_hieght_m' in step2[0].select (did you mean 'min_height_m'?)" in text
+    assert "step2[1].select.min_height_m: expected a number, got 'tall'" in text
+    # step2 written as a mapping, a step that does not exist, a bad CRS: no traceback
+    bad.write_text(
+        "cloud: site.laz\nlayers: {building: fp.gpkg}\noutput: out\ncloud_crs: EPSG:99999\n"
+        "reproject: yes please\nstep2:\n  select: {class: building}\n  step: supports\n"
+    )
+    with pytest.raises(InputError) as err:
+        load_config(bad)
+    text = str(err.value)
+    assert "step2: expected a list of entries" in text and "got a mapping" in text
+    assert "cloud_crs: 'EPSG:99999' is not a CRS" in text
+    assert "reproject: expected true or false, got 'yes please'" in text
+    assert main(["pipeline", str(bad)]) == 2
+    bad.write_text(
+        "cloud: site.laz\nlayers: {building: fp.gpkg}\noutput: out\n"
+        "step2:\n  - {select: {class: building}, step: walls}\n  - 3\n"
+    )
+    with pytest.raises(InputError, match=r"step2\[0\]\.step: expected one of supports, beams"):
+        load_config(bad)
+    # good values are converted: whole numbers, lists -> tuples, one name -> a list
+    bad.write_text(
+        "cloud: site.laz\nlayers: {building: fp.gpkg}\noutput: out\n"
+        "complex: {min_cluster_points: 20.0, layer_order: [building], buffer_m: 2}\n"
+        "per_object: name\nstep2:\n  - select: {names: Pendopo, min_height_m: 2}\n"
+    )
+    cfg = load_config(bad)
+    assert cfg.complex.min_cluster_points == 20 and cfg.complex.layer_order == ("building",)
+    assert cfg.complex.buffer_m == 2.0
+    assert cfg.step2[0].names == ("Pendopo",) and cfg.step2[0].name_field == "name"
+
+
+def test_names_matching_nothing_warn_and_nothing_selected_is_an_error() -> None:
+    from pyheracles.pipeline import _selections
+
+    objects = pd.DataFrame(
+        {"instance": [1, 2, 3], "class": ["building", "building", "wall"],
+         "height": [6.0, 2.0, 3.0], "name": ["Pendopo", "Langgar", "Kelir"]}
+    )  # fmt: skip
+    specs = [Step2Spec("supports", "building", 0.0, ("Pendopo", "Pendapa"), "name")]
+    chosen, warnings = _selections(objects, specs)
+    assert chosen[0]["name"].tolist() == ["Pendopo"]
+    assert len(warnings) == 1 and "['Pendapa'] match no building" in warnings[0]
+    with pytest.raises(InputError, match="step 2 selects no object of the 3") as err:
+        _selections(objects, [Step2Spec("supports", "building", 10.0, ("Pendopo",), "name")])
+    assert "Kelir" in str(err.value) and "classes are building, wall" in str(err.value)
+    assert _selections(objects, []) == ([], [])
+
+
+def test_pipeline_warns_about_unmatched_names_and_refuses_an_empty_selection(
+    pavilion_site: Path,
+) -> None:
+    import json
+
+    text = pavilion_site.read_text().replace("names: [Pendopo]", "names: [Pendapa]")
+    pavilion_site.write_text(text)
+    assert main(["pipeline", str(pavilion_site)]) == 2  # nothing at all selected
+    assert not (pavilion_site.parent / "out").exists()
+    pavilion_site.write_text(
+        text.replace("- select: {class: building, min_height_m: 2, names: [Pendapa]",
+                     "- select: {class: building, min_height_m: 200}\n"
+                     "    step: supports\n"
+                     "  - select: {class: building, min_height_m: 2, names: [Pendopo, Pendapa]")
+    )  # fmt: skip
+    from pyheracles.pipeline import run_pipeline
+
+    run = run_pipeline(load_config(pavilion_site))
+    assert [r["name"] for r in run["step2"]] == ["Pendopo"]
+    assert any("['Pendapa'] match no building" in w for w in run["warnings"])
+    record = json.loads((pavilion_site.parent / "out" / "run.json").read_text())
+    assert any("Pendapa" in w for w in record["warnings"])
+
+
+def test_cloud_and_layers_without_crs_get_a_note(tmp_path: Path) -> None:
+    import json
+
+    from pyheracles.pipeline import complex_from_files
+
+    rng = np.random.default_rng(0)
+    g = np.c_[rng.uniform(0, 60, 30000), rng.uniform(0, 60, 30000), rng.normal(0, 0.01, 30000)]
+    b = np.c_[rng.uniform(20, 30, 6000), rng.uniform(20, 30, 6000), np.full(6000, 5.0)]
+    write_cloud(PointCloud.from_world(np.vstack([g, b])), tmp_path / "site.laz")
+    layer = gpd.GeoDataFrame({"name": ["A"]}, geometry=[shapely.box(20, 20, 30, 30)])
+    with pytest.warns(UserWarning, match="crs"):  # a layer without CRS, on purpose
+        layer.to_file(tmp_path / "fp.gpkg", driver="GPKG")
+    _, paths, _, _ = complex_from_files(
+        tmp_path / "site.laz", [f"building={tmp_path / 'fp.gpkg'}"], tmp_path / "out"
+    )
+    notes = json.loads(paths["run"].read_text())["notes"]
+    assert any("neither the cloud nor the layers have a CRS" in n for n in notes)

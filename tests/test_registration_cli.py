@@ -148,3 +148,116 @@ def test_register_bunny_with_icp(shared_data: Path, tmp_path: Path) -> None:
     assert np.abs(err).max() < 1e-3  # metres; the tie points alone are off by ~2 mm
     icp_report = json.loads((out / "transform.json").read_text())["icp"]
     assert icp_report["converged"] and icp_report["overlap_fraction"] > 0.8
+
+
+# ----------------------------------------------------------------------------- issue 15
+def test_georef_and_register_write_the_given_crs(files, tmp_path: Path, capsys) -> None:
+    from pyheracles.registration.points import read_points
+
+    meas = []
+    for side in ("ext", "int"):
+        t, m = read_points(files[f"ties_{side}"]), read_points(files[f"targets_{side}"])
+        meas.append(tmp_path / f"meas_{side}.csv")
+        write_points(
+            meas[-1],
+            PointList(m.ids + t.ids, np.vstack([m.xyz, t.xyz]), np.vstack([m.sigma, t.sigma])),
+        )
+    args = ["georef", str(files["exterior"]), str(files["interior"]),
+            "--control", str(files["control"]), "--measured", str(meas[0]),
+            "--measured", str(meas[1]), "--strategy", "block", "--rigid", "interior"]  # fmt: skip
+    assert main([*args, "--crs", "EPSG:2154", "-o", str(tmp_path / "geo")]) == 0
+    assert read_cloud(tmp_path / "geo" / "interior_georef.laz").crs.to_epsg() == 2154
+    tj = json.loads((tmp_path / "geo" / "transform_interior.json").read_text())
+    assert tj["target_crs"] == "EPSG:2154"
+    assert json.loads((tmp_path / "geo" / "georef.json").read_text())["crs"] == "EPSG:2154"
+    assert json.loads((tmp_path / "geo" / "run.json").read_text())["crs"] == "EPSG:2154"
+    # without --crs the outputs have none, and the run says so
+    capsys.readouterr()
+    assert main([*args, "-o", str(tmp_path / "geo2")]) == 0
+    assert "give no CRS: the outputs have none (use --crs)" in capsys.readouterr().err
+    assert read_cloud(tmp_path / "geo2" / "interior_georef.laz").crs is None
+    # a bad CRS: exit 2 before any work, no output
+    assert main([*args, "--crs", "Lambert-93", "-o", str(tmp_path / "geo3")]) == 2
+    assert "--crs 'Lambert-93' is not a coordinate reference system" in capsys.readouterr().err
+    assert not (tmp_path / "geo3").exists()
+    # register: the target's CRS (none here) or --crs
+    reg = ["register", str(files["interior"]), str(files["exterior"]), "--tiepoints",
+           str(files["ties_int"]), "--tiepoints", str(files["ties_ext"])]  # fmt: skip
+    assert main([*reg, "--crs", "EPSG:32631", "-o", str(tmp_path / "reg")]) == 0
+    assert read_cloud(tmp_path / "reg" / "interior_registered.laz").crs.to_epsg() == 32631
+    tj = json.loads((tmp_path / "reg" / "transform.json").read_text())
+    assert tj["target_crs"] == "EPSG:32631"
+    assert main([*reg, "--crs", "nowhere", "-o", str(tmp_path / "reg2")]) == 2
+
+
+def test_checkpoints_without_output_folder_and_in_another_frame(files, tmp_path, capsys):
+    from pyheracles.registration.points import read_points
+
+    chk = read_points(files["check"])
+    int_check = tmp_path / "check_int.csv"
+    write_points(int_check, chk.select([i for i in chk.ids if i.startswith("CHK_I")]))
+    # world check points for the interior scan in its scanner frame: a clear error
+    code = main(["checkpoints", str(files["interior"]), "--points", str(int_check),
+                 "--sphere-radius", "0.0725"])  # fmt: skip
+    assert code == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "none of the 5 points lies within the cloud interior.laz" in err
+    assert "another frame" in err
+    # in the scanner frame, without -o: the residuals are shown and the user told
+    local = tmp_path / "check_int_local.csv"
+    T = np.linalg.inv(np.load(files["T_world_int"]))
+    world = read_points(int_check)
+    write_points(local, PointList(world.ids, apply_to_points(T, world.xyz)))
+    code = main(["checkpoints", str(files["interior"]), "--points", str(local),
+                 "--sphere-radius", "0.0725"])  # fmt: skip
+    assert code == 0
+    captured = capsys.readouterr()
+    assert "RMS" in captured.out
+    assert "no output folder given: nothing written (use -o DIR)" in captured.err
+
+
+def _readme_commands(*names: str) -> list[list[str]]:
+    """The ``heracles NAME ...`` commands of the README's QC-2 example block."""
+    import shlex
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    block = text.split("## QC-2")[1].split("```bash")[1].split("```")[0]
+    lines = block.replace("\\\n", " ").splitlines()
+    out = []
+    for line in lines:
+        words = shlex.split(line, comments=True)
+        if words[:1] == ["heracles"] and words[1] in names:
+            out.append(words[1:])
+    return out
+
+
+def test_readme_georef_and_checkpoints_example_runs(tmp_path: Path, monkeypatch) -> None:
+    """Issue 15, defect 17: the README's georef + checkpoints commands, verbatim, on the
+    generated church written under the README's file names."""
+    from pyheracles.registration.points import read_points
+
+    s = make_church(ChurchParams(spacing_m=0.3, window_spacing_m=0.1), rng=5)
+    write_cloud(s.exterior, tmp_path / "exterior.laz")
+    write_cloud(s.interior, tmp_path / "interior.laz")
+    write_points(tmp_path / "gcp.csv", s.control)
+    for side, cloud, targets, ties, radius in (
+        ("ext", s.exterior, s.targets_exterior, s.manual_ties_exterior, 0.0725 * 0.8),
+        ("int", s.interior, s.targets_interior, s.manual_ties_interior, 0.0725),
+    ):
+        m = measure_spheres(cloud, targets, radius)  # sphere centres measured in the cloud
+        write_points(
+            tmp_path / f"{side}_targets.csv",
+            PointList(m.ids + ties.ids, np.vstack([m.xyz, ties.xyz]),
+                      np.vstack([m.sigma, ties.sigma])),
+        )  # fmt: skip
+    write_points(
+        tmp_path / "chk_interior.csv", s.check.select([i for i in s.check.ids if "_I" in i])
+    )
+    commands = _readme_commands("georef", "checkpoints")
+    assert [c[0] for c in commands] == ["georef", "checkpoints"]
+    monkeypatch.chdir(tmp_path)
+    for command in commands:
+        assert main(command) == 0, command
+    rep = json.loads((tmp_path / "qc" / "checkpoints.json").read_text())
+    assert rep["n_points"] == 5 and rep["rms_m"]["3d"] < 0.03
+    assert read_points(tmp_path / "chk_interior.csv").ids == tuple(p["id"] for p in rep["points"])

@@ -504,7 +504,14 @@ def reference_from_polygons(
     -------
     numpy.ndarray
         ``(N,)`` int32: ``k + 1`` for the polygon in row *k*, 0 for points of
-        no polygon (and for every point outside ``ref_mask``).
+        no polygon (and for every point outside ``ref_mask``); all 0 when no
+        polygon meets the points.
+
+    Raises
+    ------
+    InputError
+        Bad shapes, a negative buffer, empty, non-polygonal or invalid
+        (self-intersecting) polygons -- the error of step 1's layer check.
 
     Notes
     -----
@@ -540,6 +547,15 @@ def reference_from_polygons(
             f"row {int(np.flatnonzero(bad)[0])} is not",
             hint="drop empty or non-polygon features from the layer",
         )
+    invalid = ~shapely.is_valid(geoms)
+    if invalid.any():  # the message of step 1 (pyheracles.io.vector.validate_polygons)
+        reasons = shapely.is_valid_reason(geoms[invalid])[:3]
+        raise InputError(
+            f"{int(invalid.sum())} invalid polygons (rows "
+            f"{np.flatnonzero(invalid)[:10].tolist()}: {'; '.join(reasons)})",
+            path=getattr(polygons, "attrs", {}).get("source"),
+            hint="repair them in your GIS or pass --fix-invalid (shapely.make_valid)",
+        )
     labels = np.zeros(len(pts), np.int32)
     if not len(geoms):
         return labels
@@ -551,8 +567,9 @@ def reference_from_polygons(
         points = shapely.points(pts[idx, 0], pts[idx, 1])
         # inside (distance 0): the lowest polygon index wins where polygons overlap
         i_pt, i_poly = tree.query(points, predicate="intersects")
-        first = np.r_[True, i_pt[1:] != i_pt[:-1]]  # pairs are sorted by point
-        labels[idx[i_pt[first]]] = i_poly[first].astype(np.int32) + 1
+        if len(i_pt):  # none when the polygons miss the points (another CRS, another area)
+            first = np.r_[True, i_pt[1:] != i_pt[:-1]]  # pairs are sorted by point
+            labels[idx[i_pt[first]]] = i_poly[first].astype(np.int32) + 1
         if buffer_m <= 0:
             continue
         # outside every polygon but within the buffer: the nearest polygon wins

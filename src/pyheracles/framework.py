@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import DegenerateGeometryError, InputError
-from pyheracles.geometry.neighbours import _as_xyz, build_tree, point_spacing
+from pyheracles.geometry.neighbours import as_xyz, build_tree, point_spacing
 from pyheracles.labels import Segmentation
 from pyheracles.segment.regiongrow import RegionGrowingParams, region_growing
 
@@ -1192,7 +1192,7 @@ def segment_beams(
         source = xyz.source
         arr = xyz.xyz
     else:
-        arr = _as_xyz(xyz)
+        arr = as_xyz(xyz)
     p = (params or BeamParams()).validate()
     if len(arr) < 4 * p.min_facet_points:
         raise InputError(

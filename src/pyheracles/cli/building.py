@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -46,6 +47,35 @@ _SUPPORTS_HELP = "\n\n".join(
 )
 
 
+def _input_height(z_levelled: float | None, prepared: Any, z_offset: float) -> float | None:
+    """A height of the prepared (levelled, metre) frame as z of the input frame (world,
+    input units) at the cloud's centre; None for None / NaN."""
+    import numpy as np
+
+    from pyheracles.building import to_input_frame
+
+    if z_levelled is None or not np.isfinite(z_levelled):
+        return None
+    q = np.r_[prepared.centre[:2], float(z_levelled)]
+    return float(to_input_frame(q, prepared)[0, 2]) + z_offset
+
+
+def _height_text(z_levelled: float | None, prepared: Any, z_offset: float) -> str | None:
+    """``z = 102.18 m (input frame), 2.18 m above the lowest point``; None without one.
+
+    One convention for every height the step-2 commands print: z in the input file's
+    frame and units, and the height above the lowest point (the same in the levelled
+    frame of the computation and in the input frame; the frame of ``--section-height``
+    and of the notes).
+    """
+    z_in = _input_height(z_levelled, prepared, z_offset)
+    if z_in is None or z_levelled is None:
+        return None
+    unit = "m" if prepared.scale_to_m == 1.0 else "mm" if prepared.scale_to_m == 1e-3 else ""
+    above = float(z_levelled) - float(prepared.xyz[:, 2].min())
+    return f"z = {z_in:.2f} {unit} (input frame), {above:.2f} m above the lowest point"
+
+
 def _summary(title: str, seg: Any, extra_rows: list[tuple[str, str]], timings: dict) -> None:
     from rich.table import Table
 
@@ -61,8 +91,6 @@ def _summary(title: str, seg: Any, extra_rows: list[tuple[str, str]], timings: d
     table.add_row("points", f"{c['total']:,} (objects {c['objects']:,}, rest {c['remainder']:,})")
     table.add_row("time", ", ".join(f"{k} {v:.1f} s" for k, v in timings.items()))
     console.print(table)
-    for w in seg.warnings:
-        console.print(f"[yellow]note:[/] {w}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:
@@ -88,16 +116,14 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from dataclasses import asdict, replace
 
-        import numpy as np
-
+        from pyheracles import progress
         from pyheracles.building import (
             AtticParams,
             BuildingParams,
             objects_in_world,
             segment_attic,
-            to_input_frame,
         )
-        from pyheracles.cli.common import output_dir
+        from pyheracles.cli.common import console, output_dir, print_run_warnings
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -110,29 +136,34 @@ def register(app: typer.Typer) -> None:
         except ValueError as exc:
             raise InputError(str(exc)) from exc
         timings: dict[str, float] = {}
-        with output_dir(outdir, force=force) as stage:
+        with output_dir(outdir, force=force) as stage, progress.enabled(console):
             t = time.perf_counter()
-            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            with progress.stage(f"reading {cloud_path.name}"):
+                cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg, split, prepared = segment_attic(cloud.xyz, params, prep, source=str(cloud_path))
+            with progress.stage("attic / body split"):
+                seg, split, prepared = segment_attic(
+                    cloud.xyz, params, prep, source=str(cloud_path)
+                )
             timings["attic"] = time.perf_counter() - t
             t = time.perf_counter()
             seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
+            z_offset = float(cloud.offset[2])
             write_segmentation(
                 cloud, seg, stage, step="attic",
                 parameters={"attic": asdict(params), "units": units},
                 inputs=[cloud_path], timings=timings,
-                extra={"limit_z_levelled_m": split.limit_z, "tilt_deg": prepared.tilt_deg,
+                extra={"limit_z_levelled_m": split.limit_z,
+                       "limit_z_input": _input_height(split.limit_z, prepared, z_offset),
+                       "tilt_deg": prepared.tilt_deg,
                        "scale_to_m": prepared.scale_to_m,
                        "slice_heights_m": split.profile.heights.tolist(),
                        "slice_areas_m2": split.profile.areas.tolist()},
             )  # fmt: skip
             timings["write"] = time.perf_counter() - t
-        limit = "no attic"
-        if split.limit_z is not None:
-            world = to_input_frame(np.r_[prepared.centre[:2], split.limit_z], prepared)[0, 2]
-            limit = f"z = {world + float(cloud.offset[2]):.2f} (input frame)"
+            print_run_warnings(stage)
+        limit = _height_text(split.limit_z, prepared, z_offset) or "no attic"
         _summary(f"heracles attic: {cloud_path.name}", seg,
                  [("attic limit", limit), ("output", str(outdir))], timings)  # fmt: skip
 
@@ -163,8 +194,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from dataclasses import asdict, replace
 
+        from pyheracles import progress
         from pyheracles.building import BuildingParams, objects_in_world, segment_building
-        from pyheracles.cli.common import output_dir
+        from pyheracles.cli.common import console, output_dir, print_run_warnings
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -180,39 +212,45 @@ def register(app: typer.Typer) -> None:
         except ValueError as exc:
             raise InputError(str(exc)) from exc
         timings: dict[str, float] = {}
-        with output_dir(outdir, force=force) as stage:
+        with output_dir(outdir, force=force) as stage, progress.enabled(console):
             t = time.perf_counter()
-            cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
+            with progress.stage(f"reading {cloud_path.name}"):
+                cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
-            seg, found, split, prepared = segment_building(
-                cloud.xyz, params, prep=prep,
-                split_attic=not no_attic, source=str(cloud_path),
-            )  # fmt: skip
+            with progress.stage("structural supports"):
+                seg, found, split, prepared = segment_building(
+                    cloud.xyz, params, prep=prep,
+                    split_attic=not no_attic, source=str(cloud_path),
+                )  # fmt: skip
             timings["supports"] = time.perf_counter() - t
             t = time.perf_counter()
             seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
+            z_offset = float(cloud.offset[2])
+            section = None if math.isnan(found.section_height) else found.section_height
             write_segmentation(
                 cloud, seg, stage, step="supports",
                 parameters={"supports": asdict(params), "units": units,
                             "split_attic": not no_attic},
                 inputs=[cloud_path], timings=timings,
                 per_object="instance" if per_object else None,
-                extra={"section_height_levelled_m": found.section_height,
+                extra={"section_height_levelled_m": section,
+                       "section_height_input_z": _input_height(section, prepared, z_offset),
                        "spacing_m": found.spacing_m, "tilt_deg": prepared.tilt_deg,
                        "scale_to_m": prepared.scale_to_m,
                        "attic_limit_levelled_m": split.limit_z,
+                       "attic_limit_input_z": _input_height(split.limit_z, prepared, z_offset),
                        "height_scores": found.height_scores},
             )  # fmt: skip
             timings["write"] = time.perf_counter() - t
+            print_run_warnings(stage)
         n_by = seg.objects["class"].value_counts().to_dict() if len(seg.objects) else {}
-        z0 = float(cloud.offset[2])
         rows = [
-            ("section height", f"z = {found.section_height + z0:.2f} (levelled frame)"),
+            ("section height", _height_text(section, prepared, z_offset) or "none (see notes)"),
             ("columns", str(n_by.get("column", 0))),
             ("piers", str(n_by.get("pier", 0))),
             ("engaged columns", str(n_by.get("engaged_column", 0))),
-            ("attic", "no attic" if split.limit_z is None else f"from {split.limit_z:.2f} m"),
+            ("attic", _height_text(split.limit_z, prepared, z_offset) or "no attic"),
             ("output", str(outdir)),
         ]
         _summary(f"heracles supports: {cloud_path.name}", seg, rows, timings)

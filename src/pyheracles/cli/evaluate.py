@@ -18,12 +18,16 @@ ground as ASPRS class 2); the reference is the SAME cloud in the same point
 order, carrying reference object ids (extra dimension 'reference_instance' or
 'instance') or, with --reference-polygons, building points (--reference-class)
 that are turned into one reference object per polygon (inside or within
---buffer metres, the nearest polygon wins).
+--buffer metres, the nearest polygon wins).  The polygons get the checks of
+step 1 ('heracles complex'): valid polygons (--fix-invalid repairs them), the
+cloud's CRS (--reproject brings them into it), overlap with the cloud.
 
 Objects are paired by maximum overlap, or with --key by a column present in
 both objects tables (e.g. the GIS feature id 'fid').  Prints precision, recall,
 F1 and % unclassified per object with mean and median rows (Murtiyoso 2020,
-tables 5.1/5.2), ground precision/recall, and writes evaluation.csv and
+tables 5.1/5.2) and ground precision/recall.
+
+Writes evaluation.csv (one row per object, then mean and median) and
 evaluation.json into --out (default: RESULT's folder).
 
 Examples:
@@ -144,6 +148,12 @@ def register(app: typer.Typer) -> None:
         buffer: Annotated[
             float, typer.Option(help="Distance to a polygon still inside it, metres.")
         ] = 1.0,
+        reproject: Annotated[
+            bool, typer.Option(help="Reproject --reference-polygons into the cloud's CRS.")
+        ] = False,
+        fix_invalid: Annotated[
+            bool, typer.Option(help="Repair invalid reference polygons (make_valid).")
+        ] = False,
         out: Annotated[
             Path | None,
             typer.Option("--out", "-o", "--outdir", help="Output folder (default: RESULT's)."),
@@ -157,6 +167,7 @@ def register(app: typer.Typer) -> None:
         from pyheracles.evaluate import evaluate_objects, ground_scores, reference_from_polygons
         from pyheracles.io import atomic_path, atomic_write_json, read_cloud
 
+        notes: list[str] = []
         res_cloud = read_cloud(result)
         ref_cloud = read_cloud(reference)
         if len(res_cloud) != len(ref_cloud):
@@ -180,11 +191,32 @@ def register(app: typer.Typer) -> None:
         ref_table = None
         ref_table_path: Path | None = None
         if reference_polygons is not None:
-            from pyheracles.io import align_crs, read_layer, validate_polygons
+            from dataclasses import replace
+
+            from pyheracles.complex import prepare_layers
+            from pyheracles.io import read_layer
 
             polys = read_layer(reference_polygons, polygons_layer)
-            polys = align_crs(polys, ref_cloud.crs, cloud_source=str(reference))
-            polys = validate_polygons(polys, fix_invalid=True)
+            # step 1's layer checks: valid polygons, the cloud's CRS, overlap with the cloud
+            if ref_cloud.crs is None and polys.crs is not None:
+                notes.append(
+                    f"the reference cloud has no CRS; taken to be the polygons' "
+                    f"{polys.crs.to_string()}"
+                )
+                ref_cloud = replace(ref_cloud, crs=polys.crs)
+            elif ref_cloud.crs is None and polys.crs is None:
+                notes.append(
+                    "neither the reference cloud nor the polygons have a CRS: they are taken "
+                    "to be in the same coordinates"
+                )
+            elif reproject and polys.crs is not None and not polys.crs.equals(ref_cloud.crs):
+                notes.append(
+                    f"reference polygons reprojected from {polys.crs.to_string()} to "
+                    f"{ref_cloud.crs.to_string()}"
+                )
+            polys = prepare_layers(
+                {"reference": polys}, ref_cloud, reproject=reproject, fix_invalid=fix_invalid
+            )["reference"]
             cls = ref_cloud.attributes.get("classification")
             if cls is None:
                 raise InputError("the reference has no classification", path=reference)
@@ -251,6 +283,7 @@ def register(app: typer.Typer) -> None:
             "reference_labels": ref_field,
             "reference_polygons": None if reference_polygons is None else str(reference_polygons),
             "buffer_m": buffer if reference_polygons is not None else None,
+            "notes": notes,
             **ev.to_dict(),
             "ground": ground,
         }
@@ -308,3 +341,5 @@ def register(app: typer.Typer) -> None:
         summary.add_row("table", str(csv_path))
         summary.add_row("json", str(json_path))
         console.print(summary)
+        for note in notes:
+            console.print(f"[yellow]note:[/] {note}", highlight=False)

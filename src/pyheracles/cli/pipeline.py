@@ -61,12 +61,14 @@ def register(app: typer.Typer) -> None:
 def _status(row: dict[str, Any], outdir: Path) -> str:
     """The real status of one step-2 object: its run.json warnings when it has any."""
     from pyheracles.cli.common import run_warnings
-    from pyheracles.pipeline import _safe
+    from pyheracles.pipeline import safe_folder_name
 
     status = str(row.get("status", ""))
     if status != "ok":
         return status
-    folder = outdir / "step2" / str(row.get("step", "")) / _safe(str(row.get("name", "")))
+    folder = (
+        outdir / "step2" / str(row.get("step", "")) / safe_folder_name(str(row.get("name", "")))
+    )
     found = run_warnings(folder) if (folder / "run.json").is_file() else []
     if not found:
         return status

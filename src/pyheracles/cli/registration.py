@@ -10,7 +10,9 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from pyheracles.cli.common import console, output_dir
+from pyheracles import progress
+from pyheracles.cli.common import console, err_console, output_dir, print_run_warnings
+from pyheracles.cli.ground import parse_crs_option
 from pyheracles.errors import InputError
 
 MODELS = ("similarity", "rigid")
@@ -44,6 +46,24 @@ def _parameter_table(title: str, result: Any) -> Table:
     return table
 
 
+def _crs_text(crs: Any) -> str | None:
+    return None if crs is None else crs.to_string()
+
+
+def _output_crs(given: Any, known: Any, what: str) -> tuple[Any, list[str]]:
+    """The CRS written into the outputs (``--crs`` or the input's) and notes about it."""
+    if given is None:
+        if known is None:
+            return None, [f"{what} and --crs give no CRS: the outputs have none (use --crs)"]
+        return known, []
+    if known is not None and not given.equals(known):
+        return given, [
+            f"--crs {given.to_string()} replaces the CRS {known.to_string()} of {what} "
+            "(a label only: nothing is reprojected)"
+        ]
+    return given, []
+
+
 def _pairs_for(tiepoints: list[Path], source: Path, target: Path):
     from pyheracles.registration.points import pair_points, read_point_groups, read_points
 
@@ -68,8 +88,10 @@ def register(app: typer.Typer) -> None:
 
     @app.command("register")
     def register_cmd(
-        source: Path = typer.Argument(..., help="Cloud to move (LAS/LAZ/PLY/E57)."),
-        target: Path = typer.Argument(..., help="Reference cloud."),
+        source: Path = typer.Argument(
+            ..., metavar="SOURCE", help="Cloud to move (LAS/LAZ/PLY/E57)."
+        ),
+        target: Path = typer.Argument(..., metavar="TARGET", help="Reference cloud."),
         out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         tiepoints: list[Path] = typer.Option(
             None,
@@ -82,13 +104,17 @@ def register(app: typer.Typer) -> None:
         estimator: str = typer.Option("danish", help="lsq, danish, l1, huber or tukey."),
         icp: bool = typer.Option(False, "--icp", help="Refine with point-to-plane ICP."),
         pane_thickness: float = typer.Option(0.02, help="Glass thickness for --auto, m."),
+        crs: str = typer.Option(
+            None, "--crs", help="CRS of the target frame (default: TARGET's), e.g. EPSG:2154."
+        ),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
     ) -> None:
         """Register SOURCE onto TARGET from tie points (manual or automatic).
 
-        Writes transform.json (4x4 T_target_source with parameters and standard
-        deviations), the source cloud in the target frame, the tie points with their
-        residuals and run.json.
+        Writes into OUT: transform.json (4x4 T_target_source with parameters and
+        standard deviations, target CRS), SOURCE_registered.laz (the source cloud in
+        the target frame, with TARGET's CRS or --crs), tiepoints.csv (tie points with
+        their residuals) and run.json.
 
         Examples:
 
@@ -109,18 +135,22 @@ def register(app: typer.Typer) -> None:
         _check_choice(model, MODELS, "--model")
         if bool(tiepoints) == auto:
             raise InputError("give either --tiepoints CSV or --auto (exactly one)")
+        given_crs = parse_crs_option(crs)
         sp = SimilarityParams(with_scale=model == "similarity", estimator=estimator)
         timings: dict[str, float] = {}
         t = time.perf_counter()
-        src = read_cloud(source)
-        tgt = read_cloud(target)
+        with progress.enabled(console), progress.stage("reading the clouds"):
+            src = read_cloud(source)
+            tgt = read_cloud(target)
         timings["read"] = time.perf_counter() - t
+        out_crs, notes = _output_crs(given_crs, tgt.crs, f"TARGET {target.name}")
         t = time.perf_counter()
         extra: dict[str, Any] = {}
         if auto:
-            tp = find_tie_points(
-                src, tgt, TiePointParams(pane_thickness_m=pane_thickness), similarity=sp
-            )
+            with progress.enabled(console), progress.stage("automatic tie points (panes)"):
+                tp = find_tie_points(
+                    src, tgt, TiePointParams(pane_thickness_m=pane_thickness), similarity=sp
+                )
             ids, a, b = tp.source.ids, tp.source.xyz, tp.target.xyz
             sa = sb = None
             extra["automatic_tie_points"] = {
@@ -135,19 +165,21 @@ def register(app: typer.Typer) -> None:
         icp_res = None
         if icp:
             t = time.perf_counter()
-            icp_res = run_icp(src, tgt, T)
+            with progress.enabled(console), progress.stage("ICP refinement"):
+                icp_res = run_icp(src, tgt, T)
             T = icp_res.T_target_source
             extra["icp"] = icp_res.to_dict()
             timings["icp"] = time.perf_counter() - t
         t = time.perf_counter()
-        with output_dir(out, force=force) as stage:
+        with output_dir(out, force=force) as stage, progress.enabled(console):
             write_transform_json(
                 stage / "transform.json", T, source=str(source), target=str(target), result=res,
-                extra=extra,
+                extra={**extra, "target_crs": _crs_text(out_crs)},
             )  # fmt: skip
-            moved = replace(apply_to_cloud(src, T, crs=tgt.crs), source=str(source))
+            moved = replace(apply_to_cloud(src, T, crs=out_crs), source=str(source))
             suffix = source.suffix.lower() if source.suffix.lower() in (".las", ".laz") else ".laz"
-            write_cloud(moved, stage / f"{source.stem}_registered{suffix}")
+            with progress.stage("writing the registered cloud"):
+                write_cloud(moved, stage / f"{source.stem}_registered{suffix}")
             rows = ["id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"]
             for i in range(len(ids)):
                 v = res.residuals[i]
@@ -163,8 +195,10 @@ def register(app: typer.Typer) -> None:
                 inputs=[source, target, *(tiepoints or [])], timings=timings,
                 counts={"points_source": len(src), "points_target": len(tgt),
                         "tie_points": len(ids), "outliers": int(res.outliers.sum())},
-                extra={"sigma0": res.sigma0, "rms_m": res.rms()},
+                extra={"sigma0": res.sigma0, "rms_m": res.rms(), "crs": _crs_text(out_crs),
+                       "notes": notes},
             )  # fmt: skip
+            print_run_warnings(stage)
         console.print(_parameter_table(f"{source.name} -> {target.name}", res))
         if icp_res is not None:
             console.print(
@@ -178,7 +212,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("georef")
     def georef_cmd(
-        clouds: list[Path] = typer.Argument(..., help="Clouds to georeference."),
+        clouds: list[Path] = typer.Argument(..., metavar="CLOUDS", help="Clouds to georeference."),
         control: Path = typer.Option(..., "--control", help="Control points CSV (world)."),
         measured: list[Path] = typer.Option(
             ...,
@@ -198,9 +232,16 @@ def register(app: typer.Typer) -> None:
         sphere_radius: float = typer.Option(
             None, help="Refine measured points as sphere target centres of this radius, m."
         ),
+        crs: str = typer.Option(
+            None, "--crs", help="CRS of the control points, e.g. EPSG:2154 (into the outputs)."
+        ),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
     ) -> None:
         """Georeference one or more clouds on control points (thesis ch. 3 strategies).
+
+        Writes into OUT: one NAME_georef.laz and transform_NAME.json per cloud,
+        georef.json (strategy, parameters, residuals) and run.json; with --crs (the
+        control points' CRS) the clouds and JSON files carry it.
 
         Example:
 
@@ -226,6 +267,7 @@ def register(app: typer.Typer) -> None:
 
         _check_choice(strategy, STRATEGIES, "--strategy")
         _check_choice(model, MODELS, "--model")
+        out_crs, notes = _output_crs(parse_crs_option(crs), None, "the control points")
         if len(measured) != len(clouds):
             raise InputError(
                 f"{len(clouds)} clouds but {len(measured)} --measured files",
@@ -236,7 +278,8 @@ def register(app: typer.Typer) -> None:
             raise InputError("cloud file names must differ (they name the outputs)")
         t0 = time.perf_counter()
         ctrl = read_points(control)
-        pcs = [read_cloud(c) for c in clouds]
+        with progress.enabled(console), progress.stage("reading the clouds"):
+            pcs = [read_cloud(c) for c in clouds]
         meas = []
         for pc, m in zip(pcs, measured, strict=True):
             pts = read_points(m)
@@ -252,7 +295,7 @@ def register(app: typer.Typer) -> None:
             for n, p in zip(names, meas, strict=True)
         ]
         sp = SimilarityParams(with_scale=with_scale, estimator=estimator)
-        report: dict[str, Any] = {"strategy": strategy}
+        report: dict[str, Any] = {"strategy": strategy, "crs": _crs_text(out_crs)}
         results: dict[str, Any] = {}
         if strategy == "independent":
             res = georeference_independent(cm, ctrl, sp)
@@ -271,21 +314,25 @@ def register(app: typer.Typer) -> None:
             transforms = blk.transforms
             report.update(blk.to_dict())
         timings = {"adjust": time.perf_counter() - t0}
-        with output_dir(out, force=force) as stage:
+        with output_dir(out, force=force) as stage, progress.enabled(console):
             for name, pc, path in zip(names, pcs, clouds, strict=True):
                 T = transforms[name]
                 write_transform_json(
                     stage / f"transform_{name}.json", T, source=str(path),
                     target=str(control), result=results.get(name),
+                    extra={"target_crs": _crs_text(out_crs)},
                 )  # fmt: skip
-                moved = replace(apply_to_cloud(pc, T), source=str(path))
-                write_cloud(moved, stage / f"{name}_georef.laz")
+                moved = replace(apply_to_cloud(pc, T, crs=out_crs), source=str(path))
+                with progress.stage(f"writing {name}_georef.laz"):
+                    write_cloud(moved, stage / f"{name}_georef.laz")
             atomic_write_json(stage / "georef.json", report)
             write_run_json(
                 stage, step="georef", parameters=sp,
                 inputs=[*clouds, control, *measured], timings=timings,
                 counts={"clouds": len(clouds), "control_points": len(ctrl)},
+                extra={"crs": _crs_text(out_crs), "notes": notes},
             )  # fmt: skip
+            print_run_warnings(stage)
         for name, r in results.items():
             console.print(_parameter_table(f"{name} ({strategy})", r))
         if strategy == "block":
@@ -294,7 +341,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("checkpoints")
     def checkpoints_cmd(
-        cloud: Path = typer.Argument(..., help="Registered/georeferenced cloud."),
+        cloud: Path = typer.Argument(..., metavar="CLOUD", help="Registered/georeferenced cloud."),
         points: Path = typer.Option(..., "--points", help="Check points CSV (reference)."),
         measured: Path = typer.Option(
             None, "--measured", help="Check points measured in the cloud (CSV, same ids)."
@@ -309,6 +356,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Residuals and RMS of independent check points; residual map as PNG.
 
+        Writes (only with -o OUT): checkpoints.json, checkpoints.csv (residuals per
+        point), residual_map.png and run.json.
+
         Example:
 
             heracles checkpoints geo/interior_georef.laz --points chk.csv
@@ -317,18 +367,34 @@ def register(app: typer.Typer) -> None:
         from pyheracles.io import read_cloud
         from pyheracles.io.atomic import atomic_write_json, atomic_write_text
         from pyheracles.provenance import write_run_json
-        from pyheracles.registration.checkpoints import check_points, plot_residual_map
+        from pyheracles.registration.checkpoints import (
+            check_points,
+            check_points_frame,
+            plot_residual_map,
+        )
         from pyheracles.registration.points import pair_points, read_points
         from pyheracles.registration.targets import measure_spheres
 
         if (measured is None) == (sphere_radius is None):
             raise InputError("give either --measured CSV or --sphere-radius (exactly one)")
         ref = read_points(points)
-        pc = read_cloud(cloud)
+        with progress.enabled(console), progress.stage(f"reading {cloud.name}"):
+            pc = read_cloud(cloud)
         if measured is not None:
             pairs = pair_points(ref, read_points(measured), unmatched="error", min_pairs=1)
             ids, reference, meas = pairs.ids, pairs.a, pairs.b
         else:
+            far = check_points_frame(
+                ref.xyz, ref.ids, pc.bounds(), margin_m=max(1.0, 2 * sphere_radius),
+                path=points, cloud=f"the cloud {cloud.name}",
+            )  # fmt: skip
+            if far:
+                raise InputError(
+                    f"{len(far)} of {len(ref.ids)} check points lie outside the cloud "
+                    f"{cloud.name} ({', '.join(far[:10])}{' ...' if len(far) > 10 else ''})",
+                    path=points,
+                    hint="list only the targets seen in this cloud",
+                )
             m = measure_spheres(pc, ref, sphere_radius)
             ids, reference, meas = ref.ids, ref.xyz, m.xyz
         rep = check_points(reference, meas, ids)
@@ -358,4 +424,10 @@ def register(app: typer.Typer) -> None:
                     inputs=[cloud, points, *([measured] if measured else [])],
                     counts={"check_points": len(ids)}, extra={"rms_m": r},
                 )  # fmt: skip
+                print_run_warnings(stage)
             console.print(f"[green]wrote[/] {out}")
+        else:
+            err_console.print(
+                "[yellow]note:[/] no output folder given: nothing written (use -o DIR)",
+                highlight=False,
+            )

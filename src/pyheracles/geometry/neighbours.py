@@ -43,6 +43,7 @@ from pyheracles.errors import InputError
 
 __all__ = [
     "LocalPCA",
+    "as_xyz",
     "build_tree",
     "estimate_normals",
     "knn",
@@ -66,7 +67,7 @@ _DEGENERATE_TRACE = 1e-20
 _COMPILED_FROM = 100_000
 
 
-def _as_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
+def as_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
     arr = np.ascontiguousarray(xyz, dtype=np.float64)
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise InputError(f"coordinates must have shape (N, 3), got {arr.shape}")
@@ -85,7 +86,7 @@ def build_tree(xyz: ArrayLike) -> cKDTree:
     node compaction, which is 30-40 % faster to build than the defaults for
     laser scans and answers queries as fast.
     """
-    arr = _as_xyz(xyz)
+    arr = as_xyz(xyz)
     if len(arr) == 0:
         raise InputError("cannot build a KD-tree on an empty point set")
     return cKDTree(arr, balanced_tree=False, compact_nodes=False)
@@ -112,7 +113,7 @@ def knn(
         ``(N, k)`` arrays sorted by distance; ``indices[i, 0]`` is ``i`` unless
         ``i`` has exact duplicates.
     """
-    arr = _as_xyz(xyz)
+    arr = as_xyz(xyz)
     if k < 1:
         raise InputError(f"k must be at least 1, got {k}")
     if tree is None:
@@ -167,7 +168,7 @@ def point_spacing(
     Exact duplicates are ignored (distance 0), so the result is the spacing of
     the distinct positions.  Used to derive automatic thresholds.
     """
-    arr = _as_xyz(xyz)
+    arr = as_xyz(xyz)
     if len(arr) < 2:
         raise InputError("point spacing needs at least 2 points")
     gen = np.random.default_rng(rng)
@@ -435,7 +436,7 @@ def local_pca(
     -------
     LocalPCA
     """
-    arr = _as_xyz(xyz)
+    arr = as_xyz(xyz)
     n = len(arr)
     if n < 3:
         raise InputError(f"local PCA needs at least 3 points, got {n}")

@@ -22,6 +22,7 @@ __all__ = [
     "CheckPointReport",
     "ResidualPropagation",
     "check_points",
+    "check_points_frame",
     "plot_residual_map",
     "propagate_residuals",
 ]
@@ -73,6 +74,60 @@ class CheckPointReport:
                 for i in range(len(self.ids))
             ],
         }
+
+
+def check_points_frame(
+    xyz: ArrayLike,
+    ids: Sequence[str],
+    bounds: ArrayLike,
+    *,
+    margin_m: float = 1.0,
+    path: str | Path | None = None,
+    cloud: str = "the cloud",
+) -> list[str]:
+    """Check that reference points are in the frame of the cloud they are measured in.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` reference coordinates (world frame of the file they come from).
+    ids
+        Their ids.
+    bounds
+        ``(2, 3)`` world min and max corners of the cloud (``PointCloud.bounds()``).
+    margin_m
+        Points this far outside the cloud's box still count as inside, metres.
+    path, cloud
+        The points file and the cloud, for the message.
+
+    Returns
+    -------
+    list of str
+        Ids of the points outside the cloud's box (the caller may report them).
+
+    Raises
+    ------
+    InputError
+        No point lies within the cloud's box: the points are in another frame (local
+        scanner coordinates for a georeferenced cloud, or the reverse), or belong to
+        another cloud.
+    """
+    p = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    b = np.asarray(bounds, dtype=np.float64).reshape(2, 3)
+    outside = ((p < b[0] - margin_m) | (p > b[1] + margin_m)).any(axis=1)
+    if len(p) and outside.all():
+        centre = b.mean(axis=0)
+        gap = float(np.median(np.linalg.norm(p - centre, axis=1)))
+        raise InputError(
+            f"none of the {len(p)} points lies within {cloud} (extent "
+            f"{b[0, 0]:.1f},{b[0, 1]:.1f},{b[0, 2]:.1f} - {b[1, 0]:.1f},{b[1, 1]:.1f},"
+            f"{b[1, 2]:.1f}; the points are {gap:.4g} m from its centre): they are in "
+            "another frame, or belong to another cloud",
+            path=path,
+            hint="give the points in the cloud's own frame (a georeferenced cloud takes "
+            "surveyed national-grid coordinates, a scan its scanner coordinates)",
+        )
+    return [str(ids[i]) for i in np.flatnonzero(outside)]
 
 
 def check_points(

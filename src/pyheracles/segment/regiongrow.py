@@ -51,7 +51,7 @@ from scipy.spatial import cKDTree
 
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import (
-    _as_xyz,
+    as_xyz,
     build_tree,
     knn,
     local_pca,
@@ -505,7 +505,7 @@ def region_growing(
     2
     """
     p = (params or RegionGrowingParams()).validate()
-    arr = _as_xyz(xyz)
+    arr = as_xyz(xyz)
     if len(arr) < max(p.k, 4):
         raise InputError(
             f"region growing needs at least {max(p.k, 4)} points, got {len(arr)}",
