@@ -246,6 +246,11 @@ def draw_params(seed: int, **overrides: Any) -> SupportsFamilyParams:
     overrides = {k: tuple(x) if isinstance(x, list) else x for k, x in overrides.items()}
     base = apply_overrides(SupportsFamilyParams(), overrides, "supports")
     _check_choices(base)
+    if base.n_stations_inside == 0 and base.n_stations_outside == 0 and base.survey != "photo":
+        raise InputError(
+            "supports family: n_stations_inside=0 and n_stations_outside=0 leave no station",
+            hint="give at least one station, or --set survey=photo for photogrammetry only",
+        )
     names = [f.name for f in fields(SupportsFamilyParams)]
     # each field its own stream (seed, crc32 of its name): adding a field changes no draw
     U = {n: np.random.default_rng([seed, zlib.crc32(n.encode())]).random(8) for n in names}
