@@ -47,6 +47,15 @@ def register(app: typer.Typer) -> None:
         cityjson: bool = typer.Option(
             False, "--cityjson", help="Also write buildings.city.json (CityJSON 2.0, LoD1.2)."
         ),
+        workers: int = typer.Option(
+            None, help="Tiles: run on a local Dask cluster of N processes (1 thread each)."
+        ),
+        scheduler: str = typer.Option(
+            None, help="Tiles: address of a running Dask scheduler (tcp://HOST:8786)."
+        ),
+        tile_buffer: float = typer.Option(
+            None, help="Tiles: buffer around each tile, m (auto: the ground window)."
+        ),
     ) -> None:
         """Split a complex into one object per GIS feature, plus ground and remainder.
 
@@ -60,16 +69,30 @@ def register(app: typer.Typer) -> None:
 
             heracles complex ahn3.laz -l building=bgt_pand.sqlite
             -l wall=bgt_scheiding.sqlite -o out/
+
+        CLOUD may also be many tiles: a quoted glob ('tiles/*.laz'), a folder or a tile
+        index .gpkg; then OUT gets tiles/<tile>/segmented.laz, objects.gpkg and tiles.gpkg
+        (see the README, "City scale"), on Dask with --workers N or --scheduler ADDRESS.
         """
         from pyheracles.complex import ComplexParams
         from pyheracles.pipeline import complex_from_files
         from pyheracles.progress import enabled, stage
+        from pyheracles.tiles import is_tile_source
 
         params = ComplexParams(
             buffer_m=buffer, cluster_distance_m=distance, min_cluster_points=min_points,
             ground=ground,
             layer_order=tuple(s.strip() for s in order.split(",")) if order else None,
         )  # fmt: skip
+        if is_tile_source(cloud):
+            from pyheracles.cli.tiles import complex_tiles
+
+            complex_tiles(
+                str(cloud), layer, out, params=params, workers=workers, scheduler=scheduler,
+                buffer_m=tile_buffer, reproject=reproject, fix_invalid=fix_invalid,
+                cloud_crs=cloud_crs, per_object=per_object, cityjson=cityjson,
+            )  # fmt: skip
+            return
         with output_dir(out, force=force) as staging, enabled(console):
             with stage("step 1: complex -> objects"):
                 result, paths, timings, _ = complex_from_files(
