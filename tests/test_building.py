@@ -148,11 +148,14 @@ def test_tilted_cloud_in_millimetres(scenes) -> None:
 def test_units_forced_and_refused() -> None:
     with pytest.raises(InputError, match="units"):
         BuildingParams(units="feet")
-    huge = np.array([[0.0, 0.0, 0.0], [5e6, 0.0, 1.0], [0.0, 1.0, 2.0]])
+    huge = np.array([[0.0, 0.0, 0.0], [5e6, 0.0, 1.0], [0.0, 1.0, 2.0]] * 4)
     with pytest.raises(InputError, match="too large"):
         prepare_building(huge)
-    metres = prepare_building(huge[:, :] / 1e4, BuildingParams(units="mm"))
+    metres = prepare_building(huge[:, :] / 1e2, BuildingParams(units="mm"))
     assert metres.scale_to_m == 1e-3
+    # --units mm on a cloud in metres: 0.5 m after scaling is no building (issue 15)
+    with pytest.raises(InputError, match="looks to be in metres already"):
+        prepare_building(huge / 1e4, BuildingParams(units="mm"), source="hall.laz")
 
 
 def test_bad_input_gives_clear_errors_or_empty_results() -> None:
@@ -170,9 +173,14 @@ def test_bad_input_gives_clear_errors_or_empty_results() -> None:
     seg, _, split, _ = segment_building(np.vstack([wall, wall + np.array([0.0, 0.0, 10.0])]))
     assert not split.has_attic
     assert any("empty" in w for w in seg.warnings)
-    # a handful of points
-    seg, found, _, _ = segment_building(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 1]]))
-    assert len(found.objects) == 0 and seg.check_balance()["total"] == 3
+    # a handful of points, copies of one point, a flat cloud: errors naming the file
+    with pytest.raises(InputError, match=r"^b\.laz: only 3 points; supports need at least 10"):
+        segment_building(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 1]]), source="b.laz")
+    with pytest.raises(InputError, match="all 5000 points are at the same location"):
+        segment_attic(np.ones((5000, 3)), source="b.laz")
+    flat = np.c_[rng.uniform(0, 10, (500, 2)), np.zeros(500)]
+    with pytest.raises(InputError, match="same height"):
+        detect_supports(flat)
 
 
 def test_forced_section_height_and_params() -> None:
@@ -309,3 +317,127 @@ def test_raster_islands_of_the_height_search_match_the_exact_clustering(
         assert d.min(axis=1).max() < 0.05  # the persistence test allows 0.15 m
         ref_len = np.array([float(i.size[0]) for i in exact])[nearest]
         np.testing.assert_allclose(lengths, ref_len, atol=0.06)
+
+
+# ----------------------------------------------------------------------------- issue 15
+def _broken_wall_and_pier(spacing: float = 0.03, rng: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A 0.3 m thick wall whose scan has 15 cm gaps every 0.45 m (occlusion), a floor, and
+    one free-standing 0.5 m pier 3 m in front of it; returns (xyz, is_pier)."""
+    g = np.random.default_rng(rng)
+
+    def box_surface(x0: float, y0: float, x1: float, y1: float, h: float) -> np.ndarray:
+        w, d = x1 - x0, y1 - y0
+        n = int(2 * (w + d) * h / spacing**2)
+        s, z = g.uniform(0, 2 * (w + d), n), g.uniform(0, h, n)
+        x = np.select([s < w, s < w + d, s < 2 * w + d], [x0 + s, x1, x1 - (s - w - d)], x0)
+        y = np.select([s < w, s < w + d, s < 2 * w + d], [y0, y0 + s - w, y1], y1 - (s - 2 * w - d))
+        return np.c_[x, y, z]
+
+    parts = [box_surface(x, 0.0, x + 0.45, 0.3, 4.0) for x in np.arange(0.0, 10.0, 0.6)]
+    parts.append(box_surface(5.0, 3.0, 5.5, 3.5, 4.0))
+    n = int(12 * 6 / spacing**2)
+    parts.append(np.c_[g.uniform(-1, 11, n), g.uniform(-1, 5, n), np.zeros(n)])
+    is_pier = np.concatenate([np.full(len(p), k == len(parts) - 2) for k, p in enumerate(parts)])
+    xyz = np.vstack(parts)
+    return xyz + g.normal(0, 0.003, xyz.shape), is_pier
+
+
+def test_pieces_of_a_wall_are_not_piers() -> None:
+    """A pier stands free; the pieces of a wall broken up by gaps in the scan (17 islands
+    of pier size in the section) are wall, not 17 more piers."""
+    xyz, is_pier = _broken_wall_and_pier()
+    found = detect_supports(xyz)
+    assert found.objects["class"].tolist() == ["pier"]
+    assert found.objects[["x", "y"]].to_numpy()[0] == pytest.approx([5.25, 3.25], abs=0.02)
+    assert np.mean(is_pier[found.instance == 1]) > 0.95
+    assert any("pieces of walls" in n for n in found.notes)
+
+
+def test_a_primitive_must_lie_within_its_points(monkeypatch: pytest.MonkeyPatch, scenes) -> None:
+    """A box fitted 100 m away or 279 m long from 24 points is rejected: its points go back
+    to the body and the notes say so."""
+    from dataclasses import replace
+
+    import pyheracles.supports as sup
+    from pyheracles.geometry.fitting import fit_oriented_box
+
+    sc = sup._Scales(spacing=0.03, distance=0.1, thickness=0.3, tol=0.06)
+    pts = np.random.default_rng(0).uniform([0, 0, 0], [0.6, 0.4, 4.0], (24, 3))
+    row = {"class": "pier", "x": 0.3, "y": 0.2, "box_length_m": 0.6, "box_width_m": 0.4}
+    assert sup._implausible(row, pts, sc) == ""
+    assert "279.00 m across" in sup._implausible({**row, "box_length_m": 279.0}, pts, sc)
+    assert "outside its points" in sup._implausible({**row, "x": 100.3}, pts, sc)
+    cyl = {"class": "column", "x": 0.3, "y": 0.2, "radius_m": 0.25}
+    assert sup._implausible(cyl, pts, sc) == ""
+    # an arc of a partly scanned column: the centre is outside the points, within a radius
+    assert sup._implausible({**cyl, "y": 0.6}, pts, sc) == ""
+
+    def far_box(points, **kwargs):  # a fit that went wrong: centred 100 m away
+        box = fit_oriented_box(points, **kwargs)
+        return replace(box, centre=box.centre + [100.0, 0.0, 0.0])
+
+    monkeypatch.setattr(sup, "fit_oriented_box", far_box)
+    scene = scenes["pavilion"]
+    seg, found, _, _ = segment_building(scene.xyz)
+    assert set(found.objects["class"]) == {"column"}  # all 10 piers rejected
+    assert any("10 support candidates rejected" in n for n in found.notes)
+    assert seg.check_balance()["total"] == len(scene.xyz)
+    piers = scene.instance[np.isin(scene.instance, scene.supports.loc[
+        scene.supports["class"] == "pier", "instance"])]  # fmt: skip
+    assert len(piers) and not (seg.class_id == 4).any()  # pier points are body again
+
+
+@pytest.fixture(scope="module")
+def demo_residence() -> np.ndarray:
+    """The demo's B11 (Dalem Arum Kedaton, a closed residence around a courtyard), as step
+    1 cuts it out of the generated Kasepuhan complex (its reference points)."""
+    from pyheracles.synthetic.complex_scene import ComplexSceneParams, kasepuhan_scene
+
+    scene = kasepuhan_scene(ComplexSceneParams(n_points=400_000, seed=0))
+    ref = scene.reference_objects
+    inst = int(ref.loc[ref["fid"] == "B11", "instance"].iloc[0])
+    return scene.cloud.xyz[scene.reference_instance == inst]
+
+
+@pytest.mark.slow
+def test_demo_residence_has_no_piers(demo_residence: np.ndarray) -> None:
+    """Issue 15, defect 11: ``heracles supports`` on the demo's B11 reported 46 piers,
+    8 centred up to 100 m outside the cloud.  A drone cloud this sparse (15-20 cm
+    spacing) needs a section thicker than the body to keep outlines together: no
+    support search, said in a note; every point stays in attic or body."""
+    seg, found, _, _ = segment_building(demo_residence)
+    assert len(found.objects) == 0
+    assert any("too sparse for a support search" in n for n in seg.warnings)
+    assert seg.check_balance()["total"] == len(demo_residence)
+    assert set(seg.objects["class"]) <= {"attic", "body"}
+    # forced through with a thin section: nothing outside its points
+    _, found, _, _ = segment_building(demo_residence, SupportParams(section_thickness_m=1.0))
+    lo, hi = demo_residence.min(axis=0), demo_residence.max(axis=0)
+    for _, r in found.objects.iterrows():
+        assert lo[0] <= r.x <= hi[0] and lo[1] <= r.y <= hi[1]
+        assert np.nan_to_num(r.box_length_m) <= np.hypot(*(hi - lo)[:2])
+
+
+def test_cli_heights_are_in_the_input_frame(tmp_path: Path, capsys) -> None:
+    """Issue 15, defect 16: section height and attic limit in one convention (z of the
+    input frame and height above the lowest point), the same in attic and supports."""
+    import json
+
+    from pyheracles.cli import main
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import write_cloud
+
+    scene = building_scene("pavilion", spacing_m=0.08, rng=7)
+    src = tmp_path / "pavilion.laz"
+    write_cloud(PointCloud.from_world(scene.xyz + np.array([1000.0, 2000.0, 50.0])), src)
+    assert main(["supports", str(src), "-o", str(tmp_path / "sup")]) == 0
+    text = capsys.readouterr().out
+    run = json.loads((tmp_path / "sup" / "run.json").read_text())
+    z_sec, z_att = run["section_height_input_z"], run["attic_limit_input_z"]
+    bottom = float(scene.xyz[:, 2].min()) + 50.0
+    assert 50.0 < z_sec - 0.0 < z_att  # world z of the input frame
+    assert f"z = {z_sec:.2f} m (input frame), {z_sec - bottom:.2f} m above the lowest" in text
+    assert f"z = {z_att:.2f} m (input frame), {z_att - bottom:.2f} m above the lowest" in text
+    assert "levelled frame" not in text
+    assert main(["attic", str(src), "-o", str(tmp_path / "att")]) == 0
+    assert f"z = {z_att:.2f} m (input frame)" in capsys.readouterr().out

@@ -27,7 +27,13 @@ from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import SliceParams, SliceProfile, slice_profile, sort_order
 from pyheracles.labels import Segmentation
-from pyheracles.supports import SupportParams, SupportResult, detect_supports, one_blas_thread
+from pyheracles.resources import check_spread
+from pyheracles.supports import (
+    SupportParams,
+    SupportResult,
+    detect_supports_checked,
+    one_blas_thread,
+)
 
 __all__ = [
     "CLASSES",
@@ -49,6 +55,12 @@ Array = NDArray[np.float64]
 #: Class codes written in ``class_id`` of the outputs.
 CLASSES: dict[int, str] = {1: "body", 2: "attic", 3: "column", 4: "pier", 5: "engaged_column"}
 _CODE = {v: k for k, v in CLASSES.items()}
+
+#: Fewest points of a building cloud (an attic split needs slices, a support an island).
+MIN_BUILDING_POINTS = 10
+#: Smallest plausible extent of one building, metres: a cloud read as millimetres that
+#: comes out smaller was in metres already.
+MIN_BUILDING_EXTENT_M = 1.0
 
 
 # ------------------------------------------------------------------------------ parameters
@@ -188,15 +200,34 @@ def level_cloud(
 
 
 def prepare_building(
-    xyz: Array, params: BuildingParams | None = None, *, source: str | None = None
+    xyz: Array,
+    params: BuildingParams | None = None,
+    *,
+    source: str | None = None,
+    step: str = "building analyses",
+    min_points: int = MIN_BUILDING_POINTS,
 ) -> PreparedCloud:
     """Check units and level the cloud (both reported in ``notes``).
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` coordinates.
+    params
+        Units and levelling.
+    source
+        File name for error messages.
+    step, min_points
+        What the cloud is for (plural, for messages: ``"supports"``) and the fewest
+        points it needs.
 
     Raises
     ------
     InputError
-        Empty input, NaN coordinates, or a cloud too large for one building even in
-        millimetres.
+        Empty input, NaN coordinates, fewer than ``min_points`` points, all points at
+        one location, on one vertical line or at one height, a cloud too large for one
+        building even in millimetres, or ``units='mm'`` on a cloud that is then smaller
+        than a building (it is in metres already).
     """
     params = params or BuildingParams()
     p = np.asarray(xyz, dtype=np.float64)
@@ -214,9 +245,18 @@ def prepare_building(
             path=source,
             hint="remove those points first",
         )
+    # extents column by column (numpy reduces an (N, 3) array along axis 0 more slowly)
+    extent = float(check_spread(p, step=step, min_points=min_points, path=source,
+                                need_z=True).max())  # fmt: skip
     notes: list[str] = []
-    # column by column: numpy reduces an (N, 3) array along axis 0 several times slower
-    extent = max(float(np.ptp(p[:, k])) for k in range(3))
+    if params.units == "mm" and extent * 1e-3 < MIN_BUILDING_EXTENT_M:
+        raise InputError(
+            f"the cloud is {extent:.3g} units across: read as millimetres it would be "
+            f"{extent * 1e-3:.3g} m, too small for a building; it looks to be in metres "
+            "already",
+            path=source,
+            hint="drop --units mm, or give --units m",
+        )
     scale = 1.0
     if params.units == "mm" or (params.units == "auto" and extent > params.mm_extent_threshold):
         scale = 1e-3
@@ -340,11 +380,12 @@ def attic_split(
                 limit = float(np.quantile(z[gap][out], 0.998)) + 1e-6
     attic = z >= limit
     if attic.mean() < params.min_attic_fraction:
+        above = f"{limit - float(z.min()):.2f} m above the lowest point"
         return AtticSplit(
             np.zeros(len(p), dtype=bool),
             None,
             prof,
-            (*notes, f"the part above z = {limit:.2f} m is too small to be an attic"),
+            (*notes, f"the part from {above} is too small to be an attic"),
         )
     return AtticSplit(attic, float(limit), prof, notes)
 
@@ -388,8 +429,13 @@ def segment_attic(
 
     Objects: ``body`` and, when found, ``attic``.  Heights in the returned split are
     in the prepared (levelled, metre) frame.
+
+    Raises
+    ------
+    InputError
+        See :func:`prepare_building` (degenerate clouds name ``source``).
     """
-    cloud = prepare_building(xyz, prep, source=source)
+    cloud = prepare_building(xyz, prep, source=source, step="attic splits")
     split = attic_split(cloud.xyz, params)
     seg = _segmentation(len(cloud.xyz), split.attic, None, (*cloud.notes, *split.notes))
     return seg, split, cloud
@@ -425,6 +471,15 @@ def segment_building(
         Intermediate results (support details, attic limit, levelling and units).
         Support positions in the objects table (``x``, ``y``, ``z_min``, ``z_max``,
         axis) are in the input frame and units; dimensions (``*_m``) in metres.
+        ``found.section_height`` and ``split.limit_z`` are in the prepared (levelled,
+        metre) frame: :func:`to_input_frame` maps them back; messages give heights
+        above the lowest point, the same in both frames.
+
+    Raises
+    ------
+    InputError
+        See :func:`prepare_building`: empty, NaN, degenerate (fewer points than
+        ``SupportParams.min_points``, no horizontal or vertical extent), units.
 
     Examples
     --------
@@ -446,7 +501,8 @@ def _segment_building(
     split_attic: bool,
     source: str | None,
 ) -> tuple[Segmentation, SupportResult, AtticSplit, PreparedCloud]:
-    cloud = prepare_building(xyz, prep, source=source)
+    need = max(MIN_BUILDING_POINTS, (supports or SupportParams()).min_points)
+    cloud = prepare_building(xyz, prep, source=source, step="supports", min_points=need)
     order, z_sorted = sort_order(cloud.xyz[:, 2])  # one sort of N points for all steps
     split = (
         attic_split(cloud.xyz, attic, z_order=order, z_sorted=z_sorted)
@@ -462,16 +518,18 @@ def _segment_building(
         # z order of the body from the one of the whole cloud (one sort, not two)
         position = np.cumsum(~split.attic) - 1  # index of each body point within the body
         in_body = ~split.attic[order]
-        found = detect_supports(
+        # the cloud was checked by prepare_building: the body is searched as it is
+        found = detect_supports_checked(
             np.take(cloud.xyz, body_idx, axis=0),
             supports,
-            z_order=position[order[in_body]],
-            z_sorted=z_sorted[in_body],
+            None,
+            position[order[in_body]],
+            z_sorted[in_body],
         )
         full = np.zeros(len(cloud.xyz), dtype=np.int32)
         full[body_idx] = found.instance
     else:  # the body is the whole cloud: no copy
-        found = detect_supports(cloud.xyz, supports, z_order=order, z_sorted=z_sorted)
+        found = detect_supports_checked(cloud.xyz, supports, None, order, z_sorted)
         full = found.instance
     found = replace(found, instance=full, objects=_to_input_frame(found.objects, cloud))
     notes = (*cloud.notes, *split.notes, *found.notes)

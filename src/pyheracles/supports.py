@@ -39,7 +39,7 @@ This module keeps that structure and fixes the failures the thesis reports:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -49,6 +49,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 from threadpoolctl import threadpool_limits
 
+from pyheracles.errors import InputError
 from pyheracles.geometry.fitting import (
     MSACParams,
     fit_circle,
@@ -56,14 +57,26 @@ from pyheracles.geometry.fitting import (
     fit_oriented_box,
     min_area_rectangle,
 )
-from pyheracles.geometry.sections import circularity, sort_order
+from pyheracles.geometry.sections import circularity, robust_floor, sort_order
+from pyheracles.resources import check_grid_memory, check_spread
 from pyheracles.segment.euclidean import euclidean_clusters, relabel_by_size, voxel_clusters
 
-__all__ = ["Island", "SupportParams", "SupportResult", "detect_supports", "section_islands"]
+__all__ = [
+    "Island",
+    "SupportParams",
+    "SupportResult",
+    "detect_supports",
+    "detect_supports_checked",
+    "section_islands",
+]
 
 Array = NDArray[np.float64]
 
 SUPPORT_CLASSES = ("column", "pier", "engaged_column")
+
+#: The automatic section may be at most this share of the body height thick: thicker, a
+#: slab at mid-height reaches floor and ceiling (the cloud is too sparse for sections).
+_MAX_SECTION_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -73,7 +86,8 @@ class SupportParams:
     Attributes
     ----------
     section_height_m
-        Height of the cross-section above the lowest point of the body, metres;
+        Height of the cross-section above the floor of the body (its lowest dense level,
+        :func:`~pyheracles.geometry.sections.robust_floor`), metres;
         ``None`` chooses it automatically (the thesis took the middle).
     section_thickness_m
         Slab thickness, metres; auto ``max(0.05, 3 x point spacing)`` (thesis: 5 cm).
@@ -292,7 +306,9 @@ def section_islands(
     """
     if len(xy) == 0:
         return []
-    labels = euclidean_clusters(xy, distance_m, params.min_points)
+    tree = cKDTree(xy)
+    _check_pair_memory(xy, tree, distance_m)
+    labels = euclidean_clusters(xy, distance_m, params.min_points, tree=tree)
     order = np.argsort(labels, kind="stable")
     counts = np.bincount(labels)
     bounds = np.r_[0, np.cumsum(counts)]
@@ -332,7 +348,98 @@ def section_islands(
                 kind, idx, np.asarray(centre), radius, angle, np.asarray(size), circ, c_rms, r_rms
             )
         )
+    if with_shapes:
+        out = _rings_from_arcs(xy, labels, out, params, distance_m)
     return out
+
+
+#: Arcs of one ring are grouped across gaps up to this wide (metres): the scan lines of a
+#: distant terrestrial scan cross a column this far apart (4 cm at 10 m and 0.23 deg,
+#: three times that on the grazing flanks of the ring).
+_ARC_GAP_M = 0.2
+#: Radii of the rings recognised from arcs (metres).
+_RING_RADIUS_M = (0.15, 1.5)
+
+
+def _rings_from_arcs(
+    xy: Array,
+    labels: NDArray[np.intp],
+    islands: list[Island],
+    params: SupportParams,
+    distance_m: float,
+) -> list[Island]:
+    """Columns whose section ring is broken into arcs and scattered scan-line pieces.
+
+    The clustering distance comes from the spacing of the densest surfaces; a column
+    far from the scanners is crossed by scan lines further apart, so its ring falls
+    apart into arcs (noise islands) and groups below ``min_points`` (unclustered).
+    These leftovers are grouped again with the gap of a distant scan
+    (``_ARC_GAP_M``), and a group is a column when a circle explains it: radius in
+    ``_RING_RADIUS_M``, trimmed RMS within a few centimetres and well below that of a
+    straight line, the points spread over at least a quarter of the ring.
+    """
+    noise = [k for k, i in enumerate(islands) if i.kind == "noise"]
+    left = np.flatnonzero(labels == 0)
+    if noise:
+        left = np.r_[left, np.concatenate([islands[k].index for k in noise])]
+    gap = max(distance_m, _ARC_GAP_M)
+    if len(left) < params.min_points or gap <= distance_m:
+        return islands
+    q = xy[left]
+    tree = cKDTree(q)
+    _check_pair_memory(q, tree, gap)
+    lab = euclidean_clusters(q, gap, params.min_points, tree=tree)
+    order = np.argsort(lab, kind="stable")
+    bounds = np.r_[0, np.cumsum(np.bincount(lab))]
+    rings: list[Island] = []
+    for g in range(1, len(bounds) - 1):  # loop over groups of arcs
+        sub = order[bounds[g] : bounds[g + 1]]
+        p = q[sub]
+        ext = np.ptp(p, axis=0)
+        if np.hypot(*ext) < params.min_support_size_m:
+            continue
+        circle = fit_circle(p)
+        if not circle or not _RING_RADIUS_M[0] <= circle.radius <= _RING_RADIUS_M[1]:
+            continue
+        c_rms = _trimmed_rms(circle.residuals(p))
+        centre = p.mean(axis=0)
+        ev = np.linalg.eigvalsh(np.cov((p - centre).T))
+        line_rms = float(np.sqrt(max(ev[0], 0.0)))
+        ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
+        sectors = np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int))
+        if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms or len(sectors) < 9:
+            continue
+        rings.append(
+            Island(
+                "column", left[sub], np.asarray(circle.center), float(circle.radius), 0.0,
+                ext, float("nan"), c_rms, line_rms,
+            )
+        )  # fmt: skip
+    if not rings:
+        return islands
+    used = np.zeros(len(xy), dtype=bool)
+    for r in rings:
+        used[r.index] = True
+    kept = [i for i in islands if i.kind != "noise" or not used[i.index].any()]
+    return kept + rings
+
+
+#: Bytes per neighbour pair of the section clustering (the pair list, the sparse graph).
+_BYTES_PER_PAIR = 48
+
+
+def _check_pair_memory(xy: Array, tree: cKDTree, distance_m: float) -> None:
+    """Refuse a section clustering whose neighbour pairs would not fit in memory (a cloud
+    in millimetres read as metres puts thousands of points within the distance)."""
+    sample = xy[np.linspace(0, len(xy) - 1, min(len(xy), 200)).astype(np.intp)]
+    k = float(np.mean(tree.query_ball_point(sample, distance_m, return_length=True)))
+    check_grid_memory(
+        len(xy) * k / 2, _BYTES_PER_PAIR,
+        f"clustering the section ({len(xy):,} points, about {k:.0f} neighbours each within "
+        f"{distance_m:g} m)",
+        "check the cloud's units (metres expected); in Python: a smaller "
+        "SupportParams(cluster_distance_m=...)",
+    )  # fmt: skip
 
 
 # The 12 "forward" offsets of the 5 x 5 cell neighbourhood: with cells of half the
@@ -614,6 +721,7 @@ def detect_supports(
     spacing_m: float | None = None,
     z_order: NDArray[np.intp] | None = None,
     z_sorted: Array | None = None,
+    source: str | None = None,
 ) -> SupportResult:
     """Find columns, piers and engaged columns in a levelled body cloud.
 
@@ -629,11 +737,23 @@ def detect_supports(
     z_order, z_sorted
         ``argsort`` of ``xyz[:, 2]`` and ``xyz[z_order, 2]`` when the caller has them
         (saves a sort).
+    source
+        File name for error messages.
 
     Returns
     -------
     SupportResult
-        Per-point support ids aligned with ``xyz`` and the supports table.
+        Per-point support ids aligned with ``xyz`` and the supports table.  No
+        supports, with a note saying why, when the cloud is too sparse for sections
+        (the slab that keeps an outline in one piece would be thicker than half the
+        body).  Candidates whose fitted primitive does not lie within their points,
+        and pier-like pieces of walls, are left in the body (counted in the notes).
+
+    Raises
+    ------
+    InputError
+        NaN coordinates, fewer than ``params.min_points`` points, all points at one
+        location, on one vertical line or at one height.
 
     Examples
     --------
@@ -643,8 +763,16 @@ def detect_supports(
     >>> found.objects["class"].value_counts().to_dict()
     {'engaged_column': 8, 'column': 8}
     """
+    params = params or SupportParams()
+    p = np.asarray(xyz, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InputError(f"coordinates must have shape (N, 3), got {p.shape}", path=source)
+    if not np.isfinite(p).all():
+        raise InputError("the body has NaN or infinite coordinates", path=source,
+                         hint="remove those points first")  # fmt: skip
+    check_spread(p, step="supports", min_points=params.min_points, path=source, need_z=True)
     with one_blas_thread():
-        return _detect_supports(xyz, params, spacing_m, z_order, z_sorted)
+        return detect_supports_checked(p, params, spacing_m, z_order, z_sorted)
 
 
 def one_blas_thread() -> threadpool_limits:
@@ -655,20 +783,22 @@ def one_blas_thread() -> threadpool_limits:
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _detect_supports(
+def detect_supports_checked(
     xyz: Array,
     params: SupportParams | None,
     spacing_m: float | None,
     z_order: NDArray[np.intp] | None,
     z_sorted: Array | None,
 ) -> SupportResult:
+    """:func:`detect_supports` on input already checked (finite, enough points and spread:
+    :func:`pyheracles.building.segment_building` checks the whole cloud once)."""
     params = params or SupportParams()
     rng = np.random.default_rng(params.seed)
     p = np.asarray(xyz, dtype=np.float64)
     n = len(p)
     empty = SupportResult(np.zeros(n, dtype=np.int32), _empty_table(), float("nan"), float("nan"))
-    if n < params.min_points:
-        return _with_note(empty, "too few points for a support search")
+    if n < params.min_points:  # a body left with too few points (checked input has more)
+        return replace(empty, notes=("too few points for a support search",))
     if z_order is None:
         order, z_sorted = sort_order(p[:, 2])
     else:
@@ -676,7 +806,18 @@ def _detect_supports(
         z_sorted = p[:, 2][order] if z_sorted is None else np.asarray(z_sorted)
     spacing = spacing_m if spacing_m is not None else _spacing(p, z_sorted, rng)
     sc = _scales(spacing, params)
-    z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
+    # the floor, not the lowest point: outliers below it moved the section search down
+    z0, z1 = robust_floor(z_sorted), float(z_sorted[-1])
+    if params.section_thickness_m is None and sc.thickness > _MAX_SECTION_SHARE * (z1 - z0):
+        # a slab that thick from mid-height reaches floor and ceiling: it is no section,
+        # and its islands are whatever the walls' points project to (pieces of walls)
+        return SupportResult(
+            empty.instance, empty.objects, float("nan"), spacing, [],
+            (f"the cloud is too sparse for a support search: at {spacing:.2f} m point "
+             f"spacing a section must be {sc.thickness:.1f} m thick to keep a support's "
+             f"outline in one piece, more than half the body height ({z1 - z0:.1f} m); "
+             "supports need a denser (terrestrial or close-range) scan",),
+        )  # fmt: skip
 
     # 1. section height: given, or where support islands are most numerous and stable
     scores: list[tuple[float, int]] = []
@@ -689,11 +830,18 @@ def _detect_supports(
     s, e = np.searchsorted(z_sorted, [h_sec - sc.thickness / 2, h_sec + sc.thickness / 2])
     sec_idx = order[s:e]
     islands = section_islands(p[sec_idx, :2], params, sc.distance)
-    notes: list[str] = [] if len(sec_idx) else [f"the section at z = {h_sec:.2f} m is empty"]
-    shapes = _support_shapes(p[sec_idx, :2], islands, params, sc, rng)
+    at = f"{h_sec - z0:.2f} m above the floor"
+    notes: list[str] = [] if len(sec_idx) else [f"the section {at} is empty"]
+    shapes, fragments = _support_shapes(p[sec_idx, :2], islands, params, sc, rng)
+    if fragments:
+        notes.append(
+            f"{fragments} pier-like island{'s' if fragments > 1 else ''} of the section "
+            f"{'are pieces of walls' if fragments > 1 else 'is a piece of a wall'} (the wall "
+            "goes on beside it): not supports"
+        )
     if not shapes:
         notes.append(
-            f"no support found in the section at z = {h_sec:.2f} m "
+            f"no support found in the section {at} "
             f"({sum(i.kind == 'wall' for i in islands)} wall islands, "
             f"{sum(i.kind == 'noise' for i in islands)} noise islands)"
         )
@@ -705,6 +853,7 @@ def _detect_supports(
     # 4. per support: floor and ceiling off, clutter off, final clustering, primitive
     instance = np.zeros(n, dtype=np.int32)
     rows = []
+    rejected: list[str] = []
     for sh, (idx, rho, ang) in zip(shapes, cookies, strict=True):  # loop over supports
         kept = _extract_support(p, idx, rho, ang, sh, params, sc, h_sec, (z0, z1))
         if kept is None:
@@ -715,12 +864,23 @@ def _detect_supports(
             abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
         ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
             notes.append(
-                f"a round candidate at ({sh['centre'][0]:.2f}, {sh['centre'][1]:.2f}) "
+                f"a round candidate of radius {sh['radius']:.2f} m ({len(cidx)} points) "
                 "was rejected: its cylinder fit disagrees with its section"
             )
             continue
+        why = _implausible(row, cpts, sc)
+        if why:  # a primitive must lie within its points: they go back to the body
+            rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
+            continue
         rows.append(row)
         instance[cidx] = len(rows)
+    if rejected:
+        notes.append(
+            f"{len(rejected)} support candidate{'s' if len(rejected) > 1 else ''} rejected, "
+            f"the fitted primitive not within the points (they stay in the body): "
+            + "; ".join(rejected[:5])
+            + (f"; ... {len(rejected) - 5} more" if len(rejected) > 5 else "")
+        )
     objects = pd.DataFrame(rows) if rows else _empty_table()
     if len(objects):
         objects.insert(0, "instance", np.arange(1, len(objects) + 1, dtype=np.int32))
@@ -757,12 +917,23 @@ def _support_shapes(
     params: SupportParams,
     sc: _Scales,
     rng: np.random.Generator,
-) -> list[dict]:
-    """Section shapes of the supports: column / pier islands, half-columns on walls."""
+) -> tuple[list[dict], int]:
+    """Section shapes of the supports: column / pier islands, half-columns on walls.
+
+    Also returns the number of pier islands left out as pieces of walls
+    (:func:`_wall_fragment`).
+    """
     shapes: list[dict] = []
     wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
     wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
+    section_tree: cKDTree | None = None
+    fragments = 0
     for isl in islands:
+        if isl.kind == "pier":
+            section_tree = section_tree if section_tree is not None else cKDTree(xy)
+            if _wall_fragment(xy, isl, section_tree, sc.distance):
+                fragments += 1
+                continue
         if isl.kind == "column" and wall_tree is not None:
             eng = _detached_half_column(xy[isl.index], isl, wall_tree, sc.distance)
             if eng is not None:
@@ -799,7 +970,36 @@ def _support_shapes(
     shapes = _dedupe(shapes)
     for sh in shapes:
         sh["buffer"] = max(params.buffer_min_m, params.buffer_fraction * float(np.max(sh["half"])))
-    return shapes
+    return shapes, fragments
+
+
+#: No passage is narrower: section points this close around a pier belong to what it
+#: stands in (metres).
+_CLEARANCE_M = 0.5
+
+
+def _wall_fragment(xy: Array, isl: Island, tree: cKDTree, band_m: float) -> bool:
+    """A pier island is a piece of a wall when the wall goes on beside it.
+
+    A pier stands free.  The pieces of a wall broken up in the section (gaps in sparse
+    or occluded data, narrow slits) have the next pieces of the same wall in line with
+    them: within :data:`_CLEARANCE_M` beyond one of their sides, inside the band of
+    their own width (plus ``band_m``), at least half as many section points as their
+    own (as many in the middle of the wall, about half at its ends).  Clutter beside a
+    pier (a fence, a bench, a scaffold) is not in line with it.
+    """
+    half = np.maximum(isl.size / 2, 1e-6)
+    need = 0.5 * len(isl.index)
+    near = tree.query_ball_point(isl.center, float(np.hypot(*half)) + _CLEARANCE_M)
+    others = np.setdiff1d(np.asarray(near, dtype=np.intp), isl.index, assume_unique=False)
+    if len(others) < need:
+        return False
+    c, s = np.cos(isl.angle), np.sin(isl.angle)
+    q = xy[others] - isl.center
+    u, v = np.abs(q @ np.array([c, s])), np.abs(q @ np.array([-s, c]))
+    beyond_u = (u > half[0]) & (u <= half[0] + _CLEARANCE_M) & (v <= half[1] + band_m)
+    beyond_v = (v > half[1]) & (v <= half[1] + _CLEARANCE_M) & (u <= half[0] + band_m)
+    return max(int(beyond_u.sum()), int(beyond_v.sum())) >= need
 
 
 _RING_M = 0.3  # width of the ring around a cookie that tells floor and ceiling heights
@@ -970,8 +1170,10 @@ def _extract_support(
     cidx, crho, cpts = cidx[keep], rho[inside][keep], cpts[keep]
     if len(cidx) < params.min_points:
         return None
-    # final clustering: keep what is connected to the section island
-    lab = voxel_clusters(cpts, max(0.03, 3.0 * sc.spacing), 1)
+    # final clustering: keep what is connected to the section island, at the support's
+    # own point spacing (a column far from the scanners is crossed by scan lines further
+    # apart than the cloud's median spacing: at that spacing it falls into pieces)
+    lab = voxel_clusters(cpts, max(0.03, 3.0 * sc.spacing, 3.0 * _local_spacing(cpts)), 1)
     in_sec = np.abs(cpts[:, 2] - h_sec) <= sc.thickness / 2
     good = np.unique(lab[in_sec & (lab > 0)])
     if len(good) == 0:
@@ -983,6 +1185,16 @@ def _extract_support(
     if zz.max() - zz.min() < params.min_height_fraction * (top_ref - floor_z):
         return None  # a chair, a sign board, a fence post: not a support
     return cidx, crho, cpts
+
+
+def _local_spacing(pts: Array, sample: int = 2000) -> float:
+    """Median nearest-neighbour distance of a support's own points (metres), capped at
+    5 cm (sparser, a support's points are no surface)."""
+    if len(pts) < 3:
+        return 0.0
+    q = pts[np.linspace(0, len(pts) - 1, min(len(pts), sample)).astype(np.intp)]
+    d, _ = cKDTree(pts).query(q, k=2)
+    return float(min(np.median(d[:, 1]), 0.05))
 
 
 def _detached_half_column(
@@ -1108,6 +1320,40 @@ def _describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
     return row
 
 
+def _implausible(row: dict, pts: Array, sc: _Scales) -> str:
+    """Why a support's fitted primitive does not lie within its points ('' if it does).
+
+    The centre must lie within the points' horizontal bounding box (a cylinder's centre
+    may lie up to one radius outside it: the points of a partly scanned column are an
+    arc), the primitive must not be larger than the points' extent, and the points must
+    be at least one per point spacing along the primitive's size.  Slack: twice the
+    surface tolerance.
+    """
+    lo = np.array([pts[:, 0].min(), pts[:, 1].min()])
+    hi = np.array([pts[:, 0].max(), pts[:, 1].max()])
+    span = float(np.hypot(*(hi - lo)))
+    slack = 2.0 * sc.tol
+    if row["class"] == "pier":
+        size = float(np.nanmax([row["box_length_m"], row["box_width_m"]]))
+        margin = slack
+        what = "box"
+    else:
+        size = 2.0 * float(row["radius_m"])
+        margin = slack + 0.5 * size
+        what = "cylinder"
+    if not np.isfinite(size):
+        return ""  # no primitive was fitted: the section shape describes it
+    if size > span + slack:
+        return f"its {what} is {size:.2f} m across, its points span {span:.2f} m"
+    centre = np.array([row["x"], row["y"]], dtype=np.float64)
+    out = float(np.max(np.r_[lo - centre, centre - hi, 0.0]))
+    if out > margin:
+        return f"the {what}'s centre lies {out:.2f} m outside its points"
+    if len(pts) < size / sc.spacing:
+        return f"{len(pts)} points for a {what} {size:.2f} m across"
+    return ""
+
+
 def _empty_table() -> pd.DataFrame:
     cols = [
         "instance",
@@ -1130,15 +1376,4 @@ def _empty_table() -> pd.DataFrame:
     ]
     return pd.DataFrame(
         {c: pd.Series(dtype="int32" if c == "instance" else "float64") for c in cols}
-    )
-
-
-def _with_note(res: SupportResult, note: str) -> SupportResult:
-    return SupportResult(
-        res.instance,
-        res.objects,
-        res.section_height,
-        res.spacing_m,
-        res.islands,
-        (*res.notes, note),
     )

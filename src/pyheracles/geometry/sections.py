@@ -22,6 +22,7 @@ __all__ = [
     "SliceProfile",
     "circularity",
     "hull_area_perimeter",
+    "robust_floor",
     "slab_mask",
     "slice_profile",
     "slices",
@@ -155,6 +156,46 @@ def sort_order(values: NDArray) -> tuple[NDArray[np.intp], NDArray]:
     return order, srt
 
 
+#: A level holds the floor when its 5 cm bin has at least this share of the fullest bin.
+_FLOOR_SHARE = 0.05
+
+
+def robust_floor(z_sorted: NDArray[np.float64], bin_m: float = 0.05) -> float:
+    """Lowest dense level of a cloud: its floor, not its lowest point.
+
+    Scattered outliers below the floor (multipath, a reflection through a puddle, a
+    point seen through a grating) must not move the floor, from which sections and
+    slices are measured: the floor is the low end (0.1 % quantile) of the lowest
+    ``bin_m`` level holding at least 5 % of the points of the fullest level, and of the
+    level above it (a floor or a ground is a
+    horizontal surface, one of the fullest levels; outliers spread over many levels).
+    A clean cloud gives its lowest point.
+
+    Parameters
+    ----------
+    z_sorted
+        Heights sorted ascending, metres.
+    bin_m
+        Height of the levels compared, metres.
+    """
+    z = np.asarray(z_sorted, dtype=np.float64)
+    if len(z) == 0:
+        return float("nan")
+    z0, z1 = float(z[0]), float(z[-1])
+    nbins = int((z1 - z0) / bin_m) + 1
+    if nbins < 2 or nbins > 1_000_000:  # flat, or not metres: the lowest point
+        return z0
+    edges = z0 + bin_m * np.arange(nbins + 1)
+    counts = np.diff(np.searchsorted(z, edges, side="left"))
+    counts[-1] += len(z) - int(counts.sum())  # the top point falls on the last edge
+    k = int(np.argmax(counts >= _FLOOR_SHARE * counts.max()))
+    if k == 0:
+        return z0
+    # the floor's own low end: a few outliers share its level
+    s, e = np.searchsorted(z, [edges[k], edges[min(k + 2, nbins)]], side="left")
+    return float(np.quantile(z[s:e], 0.001))
+
+
 def slab_mask(z: NDArray[np.float64], centre: float, thickness_m: float) -> NDArray[np.bool_]:
     """Boolean mask of the points within ``thickness / 2`` of ``centre`` in z."""
     return np.abs(np.asarray(z) - centre) <= thickness_m / 2
@@ -239,7 +280,9 @@ def slice_profile(
         z_order, z_sorted = sort_order(p[:, 2])
     elif z_sorted is None:
         z_sorted = p[:, 2][z_order]
-    z0, z1 = float(z_sorted[0]), float(z_sorted[-1])
+    # from the floor, not the lowest point: outliers below the floor make slices of
+    # scattered points whose hull areas read as attic changes
+    z0, z1 = robust_floor(z_sorted), float(z_sorted[-1])
     first = z0 + params.ground_tolerance_m + params.thickness_m / 2
     centres = np.arange(first, z1 + 1e-9, params.interval_m)
     order, starts, ends = slices(
