@@ -488,28 +488,33 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     ok = (r >= st.range_m[0]) & (r <= st.range_m[1])
     ok &= cosi >= np.sin(np.deg2rad(st.grazing_limit_deg))
     signal = caster.reflectance[prim] * cosi * (10.0 / np.maximum(r, 0.1)) ** 2
-    ok &= rng.random(len(r)) < 1 - np.exp(-signal / st.detection)
-    # mixed pixels: a beam at a depth edge between two different surfaces of the grid
+    ok &= rng.random(len(r), dtype=np.float32) < 1 - np.exp(-signal / st.detection)
+    # mixed pixels: a beam at a depth edge between two different surfaces of the grid;
+    # only the few candidate edges (a range jump or sky beside) are examined further
     mixed = np.zeros(len(flat), bool)
     r_mix = r.copy()
+    Rf, Pf = R.reshape(-1), P.reshape(-1)
     for nb_flat, valid in (
         (flat + ne, ia + 1 < na),  # next column (azimuth)
         (flat + 1, ie + 1 < ne),  # next row (elevation)
     ):
-        nbf = np.where(valid, nb_flat, flat)
-        rn = R.ravel()[nbf].astype(float)
-        pn = P.ravel()[nbf]
+        cand = np.flatnonzero(valid & ~mixed)
+        nbf = nb_flat[cand]
+        pn = Pf[nbf]
+        rn = Rf[nbf].astype(float)
         sky = pn < 0
-        other = ~sky & (pn != prim)
+        jump = sky | (np.abs(rn - r[cand]) > st.edge_jump_m)
+        cand, pn, rn, sky = cand[jump], pn[jump], rn[jump], sky[jump]
+        other = ~sky & (pn != prim[cand])
         other[other] &= (
-            np.einsum("ij,ij->i", caster.normals[pn[other]], caster.normals[prim[other]]) < 0.95
+            np.einsum("ij,ij->i", caster.normals[pn[other]], caster.normals[prim[cand[other]]])
+            < 0.95
         )
-        edge = valid & (sky | other) & ~mixed
-        edge &= np.where(sky, True, np.abs(rn - r) > st.edge_jump_m)
-        pick = edge & (rng.random(len(r)) < st.mixed_pixel_share / 2)
-        far = np.where(sky, r + rng.uniform(0.2, 2.0, len(r)), rn)
-        r_mix = np.where(pick, r + rng.random(len(r)) * (far - r), r_mix)
-        mixed |= pick
+        keep = (sky | other) & (rng.random(len(cand)) < st.mixed_pixel_share / 2)
+        cand, rn, sky = cand[keep], rn[keep], sky[keep]
+        far = np.where(sky, r[cand] + rng.uniform(0.2, 2.0, len(cand)), rn)
+        r_mix[cand] = r[cand] + rng.random(len(cand)) * (far - r[cand])
+        mixed[cand] = True
     mixed &= ok
     idx = np.flatnonzero(ok)
     r_out = r_mix[idx]
