@@ -1,7 +1,7 @@
 """Ground filtering benchmark: ISPRS filter test, AHN3 Delft, CSF's sample, speed, bad input.
 
 Run: ``python benchmarks/bench_ground.py [PART ...]`` (prints one JSON line per measurement;
-parts: isprs, ahn3, speed, synthetic, csf_sample, bad_input; default all), or
+parts: isprs, ahn3, speed, tiles, synthetic, csf_sample, bad_input; default all), or
 ``python benchmarks/bench_ground.py --sweep N [--first-seed S]`` for the terrain family sweep.
 
 Targets (issue 7):
@@ -19,6 +19,8 @@ Targets (issue 7):
 - Step 1's scale: auto on a 10 M point synthetic complex (time, ground precision / recall).
 - CSF's own sample: the CSF wrapper reproduces CSF's published split.
 - Bad input (building interior, walls only, single scan line): a clear result, no traceback.
+- Tiles (issue 17): AHN3 tile 1 as 8 tiles side by side and on a diagonal, the diagonal
+  within 2x of the row (hole filling and morphology must follow the data).
 
 Sweep (issue 17): ``--sweep N`` draws seeds S..S+N-1 of the ``terrain`` scene family
 (:mod:`pyheracles.synthetic.families.terrain`: slopes to 45 deg, crests, 1-4 m steps,
@@ -387,6 +389,56 @@ def bench_speed() -> None:
     )
 
 
+def tile_mosaics(xyz: np.ndarray, n_tiles: int = 8) -> dict[str, np.ndarray]:
+    """The same tile ``n_tiles`` times: side by side in a row, and corner to corner on a
+    diagonal (the bounding box of the diagonal is ``n_tiles`` times larger)."""
+    span = xyz.max(axis=0) - xyz.min(axis=0)
+    shifts = np.arange(n_tiles)[:, None]
+    row = np.concatenate([xyz + np.array([span[0], 0.0, 0.0]) * k for k in shifts])
+    diagonal = np.concatenate([xyz + np.array([span[0], span[1], 0.0]) * k for k in shifts])
+    return {"side_by_side": row, "diagonal": diagonal}
+
+
+def bench_tiles() -> None:
+    """Issue 17: the same points as 8 AHN3 tiles side by side or on a diagonal, time ratio
+    <= 2 (the hole filling's cost must follow the filled area, not the bounding box)."""
+    import resource
+
+    xyz, _ = read_las(SHARED_DATA / "delft_ahn3" / "ahn3_tile1.laz")
+    mosaics = tile_mosaics(xyz)
+    for method in ("smrf", "auto"):
+        wall, cpu = {}, {}
+        for layout, pts in mosaics.items():
+            t, c = time.perf_counter(), time.process_time()
+            res = extract_ground(pts, method)
+            wall[layout] = time.perf_counter() - t
+            cpu[layout] = time.process_time() - c
+            emit(
+                dataset=f"delft_ahn3/8_tiles_{layout}",
+                metric=f"extract_ground_{method}.time_s",
+                value=round(wall[layout], 3),
+                time_s=round(wall[layout], 3),
+                cpu_s=round(cpu[layout], 3),
+                points_per_s=round(len(pts) / wall[layout]),
+                n_points=len(pts),
+                n_ground=res.n_ground,
+                dtm_cells=int(res.dtm.z_m.size) if res.dtm is not None else 0,
+                max_rss_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
+            )
+        ratio = wall["diagonal"] / wall["side_by_side"]
+        emit(
+            dataset="delft_ahn3/8_tiles",
+            metric=f"extract_ground_{method}.diagonal_over_side_by_side",
+            value=round(ratio, 3),
+            cpu_ratio=round(cpu["diagonal"] / cpu["side_by_side"], 3),
+            time_s=None,
+            points_per_s=None,
+            target="<= 2.0",
+            reached=bool(ratio <= 2.0),
+            load_average_1min=round(os.getloadavg()[0], 2),
+        )
+
+
 def bench_synthetic_10m(n_points: int = 10_000_000) -> None:
     """Step 1's case: auto ground on a 10 M point synthetic complex, scored on its truth."""
     from pyheracles.synthetic.complex_scene import ComplexSceneParams, kasepuhan_scene
@@ -735,7 +787,7 @@ def main() -> None:
     parser.add_argument(
         "parts",
         nargs="*",
-        help="isprs, ahn3, speed, synthetic, csf_sample, bad_input (default all)",
+        help="isprs, ahn3, speed, tiles, synthetic, csf_sample, bad_input (default all)",
     )
     parser.add_argument(
         "--sweep",
@@ -759,6 +811,7 @@ def main() -> None:
         "isprs": bench_isprs,
         "ahn3": bench_ahn3,
         "speed": bench_speed,
+        "tiles": bench_tiles,
         "synthetic": bench_synthetic_10m,
         "csf_sample": bench_csf_sample,
         "bad_input": bench_bad_input,

@@ -237,9 +237,62 @@ def test_single_scan_line_is_reported(method: str, rng: np.random.Generator) -> 
     assert "scan line" in result.note
 
 
-def test_single_point_is_reported() -> None:
-    result = extract_ground(np.array([[1.0, 2.0, 3.0]]), "auto")
-    assert result.n_ground == 0 and result.note
+def test_single_point_is_an_input_error() -> None:
+    """Issue 15: one point (or copies of one point) is refused, not "no ground"."""
+    with pytest.raises(
+        InputError, match=r"^one\.laz: only 1 point; ground filters need at least 3"
+    ):
+        extract_ground(np.array([[1.0, 2.0, 3.0]]), "auto", source="one.laz")
+    with pytest.raises(InputError, match="all 5000 points are at the same location"):
+        extract_ground(np.full((5000, 3), 2.0), "smrf")
+    with pytest.raises(InputError, match="one vertical line"):
+        extract_ground(np.c_[np.zeros(40), np.zeros(40), np.arange(40.0)], "csf")
+
+
+def test_rasters_larger_than_the_memory_are_refused_before_any_work(
+    rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pyheracles.resources as res
+
+    xyz = np.c_[rng.uniform(0, 1200, 3000), rng.uniform(0, 800, 3000), rng.normal(0, 0.1, 3000)]
+    with pytest.raises(InputError, match=r"a DTM at 0\.001 m cells .* needs .* Fix: --dtm-cell"):
+        extract_ground(xyz, "smrf", dtm_cell_m=0.001, source="site.laz")
+    # the filter's own raster too, when the machine is small
+    monkeypatch.setattr(res, "available_memory_bytes", lambda: 2**20)
+    with pytest.raises(InputError, match=r"an SMRF raster at 0\.5 m cells .* SMRFParams\(cell_m="):
+        extract_ground(xyz, "smrf", SMRFParams(cell_m=0.5))
+    with pytest.raises(InputError, match="a CSF cloth"):
+        extract_ground(xyz, "csf", CSFParams(cloth_resolution_m=0.5))
+
+
+def test_cli_crs_and_dtm_nodata(tmp_path: Path, rng: np.random.Generator, capsys) -> None:
+    """--crs labels ground.laz and dtm.tif; dtm.tif has a nodata value; bad --crs: exit 2."""
+    import rasterio
+
+    from pyheracles.cli import main
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import read_cloud, write_cloud
+
+    xy = rng.uniform(0, 60, (20000, 2))
+    roof = (np.abs(xy - 30) < 6).all(axis=1)
+    xyz = np.c_[xy, np.where(roof, 8.0, 0.02 * xy[:, 0])] + [600_000, 6_800_000, 50]
+    src = tmp_path / "site.laz"
+    write_cloud(PointCloud.from_world(xyz), src)  # no CRS in the file
+    assert main(["ground", str(src), "-o", str(tmp_path / "plain")]) == 0
+    assert "no CRS" in capsys.readouterr().err
+    with rasterio.open(tmp_path / "plain" / "dtm.tif") as dtm:
+        assert dtm.crs is None and dtm.nodata == -9999.0
+    out = tmp_path / "g"
+    assert main(["ground", str(src), "--crs", "EPSG:2154", "-o", str(out)]) == 0
+    assert read_cloud(out / "ground.laz").crs.to_epsg() == 2154
+    with rasterio.open(out / "dtm.tif") as dtm:
+        assert dtm.crs.to_epsg() == 2154 and dtm.nodata == -9999.0
+        assert np.isfinite(dtm.read(1)).all() and (dtm.read(1) > 40).all()
+    assert json.loads((out / "run.json").read_text())["crs"] == "EPSG:2154"
+    assert main(["ground", str(src), "--crs", "EPSG:999999", "-o", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "--crs 'EPSG:999999' is not a coordinate reference system" in err
+    assert not (tmp_path / "x").exists()
 
 
 # ----------------------------------------------------------------------------- DTM

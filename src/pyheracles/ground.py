@@ -65,6 +65,7 @@ from pyheracles.groundfilters.surface import (
     height_above_ground,
     rasterise_cells,
 )
+from pyheracles.resources import check_grid_memory, check_spread, smallest_cell_m
 
 __all__ = [
     "DEFAULT_MAX_OBJECT_SIZE_M",
@@ -90,6 +91,18 @@ GROUND_METHODS = ("auto", "csf", "smrf", "none")
 
 _CEILING_HEIGHT_M = 2.0
 _CEILING_COVER = 0.97
+
+#: Fewest points a ground filter works with (three points span a plane).
+MIN_GROUND_POINTS = 3
+
+# Bytes held per raster cell at once, estimated from the arrays each stage allocates:
+# SMRF / refinement (minimum surface, openings, slopes, masks: ~8 float64 rasters), a DTM
+# (mean surface and its work arrays, the membrane inpainting's sparse system over empty
+# cells, the float32 GeoTIFF bands) and a CSF cloth particle (C++ object with positions,
+# displacement and neighbour lists).
+_FILTER_BYTES_PER_CELL = 64
+_DTM_BYTES_PER_CELL = 96
+_CLOTH_BYTES_PER_PARTICLE = 200
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,6 +218,40 @@ def _surface_note(
     return ""
 
 
+def _check_rasters(
+    span: NDArray[np.float64], used: Any, dtm_cell_m: float | None, source: str | None
+) -> None:
+    """Refuse before any work a filter grid or DTM too large for the free memory.
+
+    ``span`` is the extent of the points in x and y (metres)."""
+    ext = np.asarray(span[:2], dtype=np.float64)
+    rasters: list[tuple[float, int, str, str]] = []
+    if isinstance(used, AutoParams):
+        for cell in sorted({used.seed.cell_m, used.refine.cell_m}):
+            rasters.append((cell, _FILTER_BYTES_PER_CELL, "the ground filter's raster",
+                            "the cell is measured from the point spacing: check the cloud's "
+                            "units, or tile the site"))  # fmt: skip
+    elif isinstance(used, SMRFParams):
+        rasters.append((used.cell_m, _FILTER_BYTES_PER_CELL, "an SMRF raster",
+                        "a coarser cell, in Python: SMRFParams(cell_m={cell}) "
+                        "or larger"))  # fmt: skip
+    elif isinstance(used, CSFParams):
+        rasters.append((used.cloth_resolution_m, _CLOTH_BYTES_PER_PARTICLE, "a CSF cloth",
+                        "a coarser cloth, in Python: CSFParams(cloth_resolution_m={cell}) "
+                        "or larger"))  # fmt: skip
+    if dtm_cell_m is not None:
+        rasters.append((dtm_cell_m, _DTM_BYTES_PER_CELL, "a DTM", "--dtm-cell {cell} or larger"))
+    for cell, per_cell, what, hint in rasters:
+        shape = (int(ext[1] // cell) + 1, int(ext[0] // cell) + 1)
+        suggest = smallest_cell_m(np.maximum(ext, cell), per_cell)
+        check_grid_memory(
+            shape, per_cell,
+            f"{what} at {cell:g} m cells over {ext[0]:.0f} x {ext[1]:.0f} m "
+            f"({shape[1]:,} x {shape[0]:,} cells)",
+            hint.format(cell=f"{suggest:g}"), path=source,
+        )  # fmt: skip
+
+
 def extract_ground(
     xyz: ArrayLike,
     method: str = "auto",
@@ -213,6 +260,7 @@ def extract_ground(
     max_object_size_m: float | None = None,
     dtm_cell_m: float | None = None,
     rng: np.random.Generator | int | None = None,
+    source: str | None = None,
 ) -> GroundResult:
     """Classify the ground points of a cloud.
 
@@ -236,6 +284,8 @@ def extract_ground(
         cloth resolution).
     rng
         Unused: every filter here is deterministic. Accepted for a uniform API.
+    source
+        File name of the cloud, for error messages.
 
     Returns
     -------
@@ -246,7 +296,9 @@ def extract_ground(
     Raises
     ------
     InputError
-        Unknown method, wrong parameter type, empty cloud, NaN coordinates.
+        Unknown method, wrong parameter type, empty cloud, NaN coordinates, fewer than
+        :data:`MIN_GROUND_POINTS` points or all of them on one vertical line, a filter
+        raster or DTM larger than the free memory (refused before any work).
     """
     del rng  # deterministic filters
     if method not in GROUND_METHODS:
@@ -264,10 +316,12 @@ def extract_ground(
     if method == "none":
         _resolve_params(method, params, None)
         return GroundResult(np.zeros(n, dtype=bool), "none", None, None, None, "")
+    span = check_spread(pts, step="ground filters", min_points=MIN_GROUND_POINTS, path=source)
     scene = None
     if method == "auto":
         scene = measure_scene(pts, max_object_size_m=max_object_size_m, slope=False)
     used = _resolve_params(method, params, scene)
+    _check_rasters(span, used, dtm_cell_m, source)
     dtm: DTM | None = None
     # the cells of the points on the filter's grid, computed once for the filter, the
     # refinement, the surface checks and the DTM
@@ -295,7 +349,17 @@ def extract_ground(
     note = "" if mask.any() else "the filter found no ground point"
     if not note:
         spacing = scene.spacing_m if scene is not None else point_spacing_m(pts[:, :2])
+        # the ground's own spacing: on sparse clouds (0.1-0.3 points/m^2, half of them
+        # under vegetation) cells of the cloud's spacing rarely have eight ground
+        # neighbours even where the ground is an area (issue 17, terrain seed 3)
         note = _surface_note(pts, mask, max(cell, spacing), sampler)
+        if note.startswith("no ground surface") and mask.sum() >= 3:
+            coarse = 2.0 * point_spacing_m(pts[mask, :2])
+            if coarse > max(cell, spacing):
+                # only the area test is repeated on the coarser cells: the ceiling test
+                # is for building interiors, dense clouds whose cells hold their points
+                retry = _surface_note(pts, mask, coarse)
+                note = retry if retry.startswith("no ground surface") else ""
     if note:
         return GroundResult(np.zeros(n, dtype=bool), method, used, None, scene, note)
     if dtm is None:

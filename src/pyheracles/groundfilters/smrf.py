@@ -35,7 +35,14 @@ from pyheracles.groundfilters.surface import (
     rasterise_cells,
 )
 
-__all__ = ["SMRFParams", "low_outliers", "progressive_filter", "smrf"]
+__all__ = [
+    "SMRFParams",
+    "low_clusters",
+    "low_outliers",
+    "progressive_filter",
+    "smrf",
+    "terrain_slope_raster",
+]
 
 
 @dataclass(frozen=True)
@@ -59,6 +66,31 @@ class SMRFParams:
         (rise over run) (1.25).
     threshold_m
         Elevation threshold: largest distance of a ground point from the DTM, metres (0.5).
+    terrain_slope_weight
+        Slope-aware seed stage (0 = off, Pingel et al. 2013 as published): the slope
+        allowed in step 3 becomes ``slope + terrain_slope_weight * local terrain slope``,
+        the local slope being that of the surface opened with the largest window (every
+        object removed) smoothed over the window. Convex ground on steep slopes (crests,
+        the edges of terraces and embankments) is lowered by every opening by about its
+        slope per cell of radius; with a fixed 0.15 it is rejected, with the local slope
+        it is kept, while objects on flat ground meet the published threshold. The
+        allowance applies to the openings up to ``terrain_slope_radius_m``: convex ground
+        is lost at the small radii, buildings at the radius of their half width, so a
+        building wider than twice that radius meets the published test on any slope.
+    terrain_slope_radius_m
+        Largest opening radius given the terrain slope allowance, metres, at least two
+        cells (3.0; on the terrain family 3 m against 5 m and no limit: the same mean
+        total error on 1-3 m cells, while on ISPRS sample 11 (buildings on a steep
+        slope) no limit raised it from 8.6 to 12.7 %).
+    low_cluster_window_m
+        Low outliers in clusters (0 = off: the published one-cell test only): cells of the
+        minimum surface that a closing of radius up to this many metres raises by more
+        than ``low_cluster_drop_m`` in one step of one cell (a pit with vertical walls:
+        multipath clusters several metres under the terrain; a real depression rises a
+        little at every step) are low outliers, whatever the cluster's size up to the
+        window.
+    low_cluster_drop_m
+        Height of that one-step jump, metres (2.0).
     """
 
     cell_m: float = 1.0
@@ -66,13 +98,25 @@ class SMRFParams:
     window_m: float = 18.0
     scalar: float = 1.25
     threshold_m: float = 0.5
+    terrain_slope_weight: float = 0.0
+    low_cluster_window_m: float = 0.0
+    low_cluster_drop_m: float = 2.0
+    terrain_slope_radius_m: float = 3.0
 
     def __post_init__(self) -> None:
         for name in ("cell_m", "window_m"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"SMRFParams.{name} must be > 0 metres, got {value!r}")
-        for name in ("slope", "scalar", "threshold_m"):
+        for name in (
+            "slope",
+            "scalar",
+            "threshold_m",
+            "terrain_slope_weight",
+            "low_cluster_window_m",
+            "low_cluster_drop_m",
+            "terrain_slope_radius_m",
+        ):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InputError(f"SMRFParams.{name} must be >= 0, got {value!r}")
@@ -115,7 +159,14 @@ def _opening(surface: NDArray[np.float64], radius: int) -> NDArray[np.float64]:
 
 
 def progressive_filter(
-    surface: NDArray[np.float64], *, slope: float, max_radius: int, cell_m: float
+    surface: NDArray[np.float64],
+    *,
+    slope: float,
+    max_radius: int,
+    cell_m: float,
+    extra_slope: NDArray[np.float64] | None = None,
+    extra_max_radius: int = 0,
+    active: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Cells flagged as objects by openings with growing disks (Pingel et al. 2013, eq. 1).
 
@@ -130,14 +181,130 @@ def progressive_filter(
         Largest disk radius, cells.
     cell_m
         Cell size, metres.
+    extra_slope, extra_max_radius
+        A slope per cell (raster of the surface's shape) added to ``slope`` at the radii
+        up to ``extra_max_radius`` (the slope-aware seed stage, see
+        :attr:`SMRFParams.terrain_slope_weight`).
+    active
+        Cells whose result is wanted (e.g. those near data); None = all. When they cover
+        a small part of the raster, the filter runs on boxes around them only (with a
+        halo of twice the largest radius, :func:`_active_blocks`), so that its cost
+        follows the data, not the bounding box (tiles on a diagonal); cells outside the
+        boxes are not objects.
     """
+    if active is not None and active.mean() < _BLOCKWISE_MAX_SHARE:
+
+        def run(window):
+            sub_extra = None if extra_slope is None else extra_slope[window]
+            return progressive_filter(
+                surface[window], slope=slope, max_radius=max_radius, cell_m=cell_m,
+                extra_slope=sub_extra, extra_max_radius=extra_max_radius,
+            )  # fmt: skip
+
+        return _boxwise(run, active, 2 * max_radius + 2, np.zeros(surface.shape, dtype=bool))
     is_object = np.zeros(surface.shape, dtype=bool)
     last = surface
     for radius in range(1, max_radius + 1):
         opened = _opening(last, radius)
-        is_object |= (last - opened) > slope * radius * cell_m
+        allowed = slope * radius * cell_m
+        if extra_slope is not None and radius <= extra_max_radius:
+            allowed = allowed + extra_slope * (radius * cell_m)
+        is_object |= (last - opened) > allowed
         last = opened
     return is_object
+
+
+#: Share of the raster's cells near data below which the morphology runs box by box.
+_BLOCKWISE_MAX_SHARE = 0.5
+
+
+def _boxwise(run, active: NDArray[np.bool_], halo: int, out: NDArray) -> NDArray:
+    """``out`` with ``run(window)`` written at the core of every box of
+    :func:`_active_blocks` (``run`` takes a window of slices, returns the window's raster)."""
+    for core, window in _active_blocks(active, halo):
+        res = run(window)
+        inner = tuple(
+            slice(c.start - w.start, c.stop - w.start) for c, w in zip(core, window, strict=True)
+        )
+        out[core] = res[inner]
+    return out
+
+
+def _active_blocks(active: NDArray[np.bool_], halo: int):
+    """(core, window) slice pairs of boxes that partition the active cells; window = core
+    grown by ``halo`` cells (clipped to the raster).
+
+    The bounding box of the active cells is split in two along its longer side, each half
+    shrunk to its own active cells, until a box is at least half active or no larger than
+    four halos: tiles on a diagonal end as one box each, not as their bounding box.
+    """
+    rows, cols = active.shape
+
+    def shrink(r0: int, r1: int, c0: int, c1: int):
+        sub = active[r0:r1, c0:c1]
+        rr = np.flatnonzero(sub.any(axis=1))
+        if rr.size == 0:
+            return None
+        cc = np.flatnonzero(sub.any(axis=0))
+        return r0 + rr[0], r0 + rr[-1] + 1, c0 + cc[0], c0 + cc[-1] + 1
+
+    stack = [shrink(0, rows, 0, cols)]
+    while stack:
+        box = stack.pop()
+        if box is None:
+            continue
+        r0, r1, c0, c1 = box
+        h, w = r1 - r0, c1 - c0
+        fill = active[r0:r1, c0:c1].mean()
+        if fill >= _BLOCKWISE_MAX_SHARE or max(h, w) <= 4 * halo:
+            core = (slice(r0, r1), slice(c0, c1))
+            window = (
+                slice(max(0, r0 - halo), min(rows, r1 + halo)),
+                slice(max(0, c0 - halo), min(cols, c1 + halo)),
+            )
+            yield core, window
+        elif h >= w:
+            mid = r0 + h // 2
+            stack += [shrink(r0, mid, c0, c1), shrink(mid, r1, c0, c1)]
+        else:
+            mid = c0 + w // 2
+            stack += [shrink(r0, r1, c0, mid), shrink(r0, r1, mid, c1)]
+
+
+def low_clusters(
+    surface: NDArray[np.float64], *, max_radius: int, drop_m: float
+) -> NDArray[np.bool_]:
+    """Cells of pits with near-vertical walls: clusters of low outliers of any size.
+
+    Closings (the opening of the inverted surface) with disks of radius 1 .. ``max_radius``
+    cells; a cell is low where one step of the sequence raises it by more than ``drop_m``.
+    A pit with vertical walls (a multipath cluster metres under the terrain) is filled in
+    one step, once the disk no longer fits into it; a real depression (a valley, a ditch,
+    a river cut with sloping banks) rises a little at every step.
+    """
+    low = np.zeros(surface.shape, dtype=bool)
+    last = -surface
+    for radius in range(1, max_radius + 1):
+        opened = _opening(last, radius)
+        low |= (last - opened) > drop_m
+        last = opened
+    return low
+
+
+def terrain_slope_raster(
+    surface: NDArray[np.float64], *, max_radius: int, cell_m: float
+) -> NDArray[np.float64]:
+    """Local terrain slope (rise over run) per cell, objects removed.
+
+    The gap-free minimum surface opened with the largest window (what no object survives)
+    is smoothed with a box of that window and its gradient taken.
+    """
+    trend = _opening(surface, max_radius)
+    trend = ndimage.uniform_filter(trend, size=max_radius + 1, mode="nearest")
+    rows, cols = trend.shape
+    gx = np.gradient(trend, cell_m, axis=1) if cols > 1 else np.zeros_like(trend)
+    gy = np.gradient(trend, cell_m, axis=0) if rows > 1 else np.zeros_like(trend)
+    return np.hypot(gx, gy)
 
 
 def low_outliers(
@@ -222,8 +389,41 @@ def smrf(
     if low.any():
         zfilled = inpaint(np.where(low | empty, np.nan, zmin))
     max_radius = max(1, int(np.ceil(p.window_m / p.cell_m)))
-    is_object = progressive_filter(zfilled, slope=p.slope, max_radius=max_radius, cell_m=p.cell_m)
+    extra = None
+    if p.terrain_slope_weight > 0:
+
+        def trend(window):
+            return terrain_slope_raster(zfilled[window], max_radius=max_radius, cell_m=p.cell_m)
+
+        if empty.mean() > 1.0 - _BLOCKWISE_MAX_SHARE:
+            halo = 3 * max_radius + 2  # the opening and the smoothing box
+            extra = _boxwise(trend, ~empty, halo, np.zeros(zfilled.shape))
+        else:
+            extra = trend((slice(None), slice(None)))
+        extra *= p.terrain_slope_weight
+    is_object = progressive_filter(
+        zfilled,
+        slope=p.slope,
+        max_radius=max_radius,
+        cell_m=p.cell_m,
+        extra_slope=extra,
+        extra_max_radius=max(2, int(np.floor(p.terrain_slope_radius_m / p.cell_m))),
+        active=~empty,
+    )
     keep = ~(empty | low | is_object)
+    if p.low_cluster_window_m > 0 and keep.any():
+        # pits in the terrain with the objects taken out (between buildings the minimum
+        # surface has pits too: streets)
+        radius = max(1, int(np.ceil(p.low_cluster_window_m / p.cell_m)))
+        terrain = inpaint(np.where(keep, zmin, np.nan))
+
+        def pits(window):
+            return low_clusters(terrain[window], max_radius=radius, drop_m=p.low_cluster_drop_m)
+
+        if keep.mean() < _BLOCKWISE_MAX_SHARE:
+            keep &= ~_boxwise(pits, keep, 2 * radius + 2, np.zeros(keep.shape, dtype=bool))
+        else:
+            keep &= ~pits((slice(None), slice(None)))
     if not keep.any():
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
