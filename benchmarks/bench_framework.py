@@ -3,7 +3,8 @@
 Run: ``python benchmarks/bench_framework.py [--quick]`` (one JSON line per measurement), or
 ``python benchmarks/bench_framework.py --seeds`` for the robustness sweep alone (the three
 roof configurations over generator seeds 0-9, one JSON line per roof and a summary per
-configuration).
+configuration), or ``python benchmarks/bench_framework.py --sweep N [--first-seed S]``
+for the sweep over the ``roof`` scene family (draws S..S+N-1, see :func:`sweep`).
 
 Targets (issue 4):
 
@@ -18,6 +19,11 @@ Targets (issue 4):
 - Region growing: voxel level vs point level speed ratio (thesis: about 10x).
 - Bad input: volumetric noise (no planar facet), a single beam, duplicated points,
   unoriented normals: a clear message or a correct result.
+
+Sweep targets (issue 13) over draws of the ``roof`` family (attics with boarding, floor,
+walls, chimney, stored timber, ladder; 1-4 TLS stations inside the frame), per draw:
+member count exact, every member matched at F1 >= 0.5, median per-member F1 >= 0.95,
+cuboid width/height within 1 cm for members seen on >= 2 faces, axis within 1 degree.
 """
 
 from __future__ import annotations
@@ -38,6 +44,21 @@ from pyheracles.synthetic.truss import Beam, TrussParams, make_truss_roof, scan_
 REPEATS = 3
 QUICK = "--quick" in sys.argv
 SEEDS = "--seeds" in sys.argv
+
+
+def _option(name: str, default: int | None) -> int | None:
+    """Integer value of ``--name N`` on the command line (``default`` when absent)."""
+    if name not in sys.argv:
+        return default
+    i = sys.argv.index(name)
+    try:
+        return int(sys.argv[i + 1])
+    except (IndexError, ValueError):
+        sys.exit(f"{name} needs a whole number, e.g. {name} 30")
+
+
+SWEEP = _option("--sweep", None)
+FIRST_SEED = _option("--first-seed", 0)
 
 #: The roof configurations of the accuracy benchmark: name, generator parameters, seed.
 ROOF_CONFIGS = [
@@ -330,8 +351,340 @@ def bad_input() -> None:
          n_beams=len(segment_beams(roof.xyz).beams), reached=True)  # fmt: skip
 
 
+# ----------------------------------------------------------------------------- family sweep
+#: Largest width / height error of a member seen on >= 2 faces, metres (issue 13).
+SWEEP_SIZE_M = 0.01
+#: Largest axis error, degrees.
+SWEEP_AXIS_DEG = 1.0
+#: A contaminating class holds at least this share of a found beam's points.
+CONTAMINATION_SHARE = 0.1
+#: A member is cut short when its found points span less than this share of its points.
+CUT_SHORT_COVERAGE = 0.8
+
+
+def member_scores(sim, result) -> dict:
+    """Match found beams to the true members of a ``roof`` draw and score them.
+
+    Found beams and members are matched one to one by point overlap (Hungarian
+    assignment on the per-pair F1).  Outlier points (gross errors, mixed pixels)
+    are left out of the scoring.  Members with no seen face (fewer than
+    ``face_min_points`` points on every lateral face) are not counted as
+    findable; they are reported apart.
+
+    Returns the draw's metrics: counts, per-member F1 (median, minimum), size and
+    axis errors of matched members, the pass/fail of each target, and the
+    failure diagnostics (one-face members lost, found beams contaminated by
+    boarding / floor / wall, members cut short, spurious beams by class, split
+    and merged members, the step's automatic thresholds).
+    """
+    from collections import Counter
+
+    from scipy.optimize import linear_sum_assignment
+
+    res = sim.clouds["cloud"]
+    good = ~res.outlier
+    names = sim.scene.class_names
+    beam_code = next(k for k, v in names.items() if v == "beam")
+    objs = sorted(
+        (o for o in sim.scene.objects if o["class"] == "beam"), key=lambda o: o["instance"]
+    )
+    n_mem = len(objs)
+    truth = np.where(res.class_id == beam_code, res.instance, 0)[good]
+    pred = result.labels[good]
+    cls = res.class_id[good]
+    xyz = res.xyz[good]
+    n_pred = len(result.beams)
+    cont = np.zeros((n_pred + 1, n_mem + 1), np.int64)
+    np.add.at(cont, (pred, truth), 1)
+    by_cls = np.zeros((n_pred + 1, max(names) + 1), np.int64)
+    np.add.at(by_cls, (pred, cls), 1)
+    size_p, size_t = cont.sum(1), cont.sum(0)
+    f1m = 2 * cont[1:, 1:] / np.maximum(size_p[1:, None] + size_t[None, 1:], 1)
+    f1 = np.zeros(n_mem)
+    match = np.zeros(n_mem, int)  # 1-based found beam, 0 = none
+    if n_pred:
+        r, c = linear_sum_assignment(-f1m)
+        ok = f1m[r, c] > 0
+        f1[c[ok]] = f1m[r[ok], c[ok]]
+        match[c[ok]] = r[ok] + 1
+    visible = np.array([o["faces_seen"] >= 1 for o in objs])
+    faces = np.array([o["faces_seen"] for o in objs])
+    roles = [o["role"] for o in objs]
+    stations = np.array(sim.params["stations"])
+    size_err = np.full(n_mem, np.nan)
+    axis_err = np.full(n_mem, np.nan)
+    coverage = np.full(n_mem, np.nan)
+    cut_far = np.zeros(n_mem, bool)
+    for j, o in enumerate(objs):
+        if f1[j] < 0.5:
+            continue
+        cub = result.beams[match[j] - 1]
+        cu = o["cuboid"]
+        ax, up, side = (np.asarray(cu[k]) for k in ("axis", "up", "side"))
+        axis_err[j] = np.degrees(np.arccos(min(1.0, abs(float(cub.axis @ ax)))))
+        dims = {}
+        for vec, val in ((cub.axes[:, 1], cub.width), (cub.axes[:, 2], cub.height)):
+            dims["w" if abs(vec @ side) > abs(vec @ up) else "h"] = val
+        size_err[j] = max(
+            abs(dims.get("w", np.inf) - cu["width"]), abs(dims.get("h", np.inf) - cu["height"])
+        )
+        mine = truth == j + 1
+        a_all = (xyz[mine] - np.asarray(cu["centre"])) @ ax
+        a_tp = a_all[pred[mine] == match[j]]
+        span = np.ptp(a_all) if len(a_all) > 1 else 0.0
+        coverage[j] = (np.ptp(a_tp) / span) if span > 0 and len(a_tp) > 1 else 1.0
+        if coverage[j] < CUT_SHORT_COVERAGE:
+            lost_lo, lost_hi = a_tp.min() - a_all.min(), a_all.max() - a_tp.max()
+            end = np.asarray(cu["centre"]) + ax * (
+                a_all.min() if lost_lo > lost_hi else a_all.max()
+            )
+            other = np.asarray(cu["centre"]) + ax * (
+                a_all.max() if lost_lo > lost_hi else a_all.min()
+            )
+            d = lambda p: np.min(np.linalg.norm(stations - p, axis=1))  # noqa: E731
+            cut_far[j] = d(end) > d(other)
+    vis = np.flatnonzero(visible)
+    fv = f1[vis]
+    two = vis[faces[vis] >= 2]
+    matched = vis[f1[vis] >= 0.5]
+    size_ok_set = two[f1[two] >= 0.5]
+    max_size = float(np.max(size_err[size_ok_set])) if len(size_ok_set) else float("inf")
+    max_axis = float(np.max(axis_err[matched])) if len(matched) else float("inf")
+    # contamination of matched found beams, by class of the foreign points
+    contaminated: dict[str, Counter] = {}
+    for j in matched:
+        i = match[j]
+        for code, n in enumerate(by_cls[i]):
+            cname = names.get(code, str(code))
+            if cname in ("beam", "none") or n < CONTAMINATION_SHARE * size_p[i]:
+                continue
+            contaminated.setdefault(cname, Counter())[roles[j]] += 1
+    # found beams matched to no member at F1 >= 0.5: what are they made of?
+    good_pred = set(match[matched].tolist())
+    spurious: Counter = Counter()
+    for i in range(1, n_pred + 1):
+        if i in good_pred:
+            continue
+        row = by_cls[i].copy()
+        dom = names.get(int(row.argmax()), "?")
+        spurious["member_piece" if dom == "beam" else dom] += 1
+    share_t = cont[1:, 1:] / np.maximum(size_t[None, 1:], 1)
+    split = int(np.sum((share_t >= 0.2).sum(0)[vis] >= 2))
+    merged = int(np.sum((share_t[:, vis] >= 0.2).sum(1) >= 2))
+    lost = vis[f1[vis] < 0.5]
+    # where the points of a lost member went: nowhere (remainder), or into a found
+    # beam made mostly of another member or of a non-member surface
+    fate: Counter = Counter()
+    for j in lost:
+        col = cont[:, j + 1]
+        i = int(col[1:].argmax()) + 1 if n_pred else 0
+        if n_pred == 0 or col[0] >= col[i]:
+            fate[f"remainder_{roles[j]}"] += 1
+            continue
+        row = by_cls[i].copy()
+        own = cont[i, 1:].copy()
+        dom_member = int(own.argmax())
+        if row[beam_code] >= row.max() and dom_member != j:
+            fate[f"{roles[j]}_into_{roles[dom_member]}"] += 1
+        elif row[beam_code] >= row.max():
+            fate[f"{roles[j]}_partial"] += 1
+        else:
+            fate[f"{roles[j]}_into_{names.get(int(row.argmax()), '?')}"] += 1
+    one = vis[faces[vis] == 1]
+    member_pts = truth > 0
+    rp = result.params
+    targets = {
+        "count_exact": bool(n_pred == len(vis)),
+        "all_matched_f1_05": bool(len(fv) and fv.min() >= 0.5),
+        "median_f1_095": bool(len(fv) and np.median(fv) >= 0.95),
+        "size_1cm": bool(max_size <= SWEEP_SIZE_M),
+        "axis_1deg": bool(max_axis <= SWEEP_AXIS_DEG),
+    }
+    return {
+        "n_members": n_mem,
+        "n_visible": len(vis),
+        "n_hidden": int(n_mem - len(vis)),
+        "n_found": n_pred,
+        "n_matched_f1_05": len(matched),
+        "median_f1": float(np.median(fv)) if len(fv) else 0.0,
+        "min_f1": float(fv.min()) if len(fv) else 0.0,
+        "max_size_err_m_2faces": max_size,
+        "max_axis_err_deg": max_axis,
+        "n_size_fail": int(np.sum(size_err[size_ok_set] > SWEEP_SIZE_M)),
+        "size_fail_bent": int(
+            np.sum(
+                [(size_err[j] > SWEEP_SIZE_M) and objs[j]["deflection_m"] > 0 for j in size_ok_set]
+            )
+        ),
+        "n_axis_fail": int(np.sum(axis_err[matched] > SWEEP_AXIS_DEG)),
+        "targets": targets,
+        "reached": bool(all(targets.values())),
+        # failure diagnostics (issue 13's list)
+        "n_one_face": len(one),
+        "one_face_lost": int(np.sum(f1[one] < 0.5)),
+        "multi_face_lost": int(np.sum(f1[vis[faces[vis] >= 2]] < 0.5)),
+        "lost_by_role": dict(Counter(roles[j] for j in lost)),
+        "lost_fate": dict(fate),
+        "contaminated": {k: dict(v) for k, v in contaminated.items()},
+        "n_cut_short": int(np.sum(coverage[matched] < CUT_SHORT_COVERAGE)),
+        "cut_short_far_end": int(np.sum(cut_far)),
+        "cut_short_by_role": dict(
+            Counter(roles[j] for j in matched if coverage[j] < CUT_SHORT_COVERAGE)
+        ),
+        "spurious": dict(spurious),
+        "split_members": split,
+        "merged_beams": merged,
+        "member_points_unassigned": float(np.mean(pred[member_pts] == 0))
+        if member_pts.any()
+        else 0.0,
+        "auto_thresholds": {
+            "angle_deg": rp.region.angle_deg,
+            "curvature_max": rp.region.curvature_max,
+            "residual_m": rp.region.residual_m,
+            "contact_m": rp.contact_m,
+            "surface_tolerance_m": rp.surface_tolerance_m,
+        },
+    }
+
+
+def _spacing_of(xyz: np.ndarray) -> float | None:
+    from pyheracles.geometry.neighbours import point_spacing
+
+    return float(point_spacing(xyz)) if len(xyz) > 100 else None
+
+
+def sweep(n: int, first: int = 0) -> None:
+    """Run the current beams step over draws ``first .. first + n - 1`` of the ``roof`` family.
+
+    One JSON line per draw (seed, key drawn parameters, metrics of
+    :func:`member_scores`, pass/fail per target, generation and step times),
+    then a summary line: share of draws meeting every target, pass share per
+    target, the worst draw (most targets failed, then lowest median F1), and
+    the failure modes summed over the draws.  Outliers are left out of the
+    scoring.
+    """
+    from collections import Counter
+
+    from pyheracles.synthetic.families import simulate
+
+    rows = []
+    t_gen_total = 0.0
+    for seed in range(first, first + n):
+        t0 = time.perf_counter()
+        sim = simulate("roof", seed)
+        t_gen = time.perf_counter() - t0
+        t_gen_total += t_gen
+        res = sim.clouds["cloud"]
+        t0 = time.perf_counter()
+        try:
+            result = segment_beams(res.xyz)
+            error = None
+        except InputError as exc:
+            result, error = None, str(exc)
+        t_step = time.perf_counter() - t0
+        P = sim.params
+        key = {
+            k: P[k]
+            for k in (
+                "frame_type",
+                "span_m",
+                "length_m",
+                "pitch_deg",
+                "n_stations",
+                "n_points_obtained",
+                "spacing_10m_m",
+                "noise_m",
+                "tie_bottom_m",
+                "has_common_rafters",
+                "bent_share",
+            )
+        }
+        beams = res.instance > 0
+        spacing = {
+            "spacing_cloud_m": _spacing_of(res.xyz[~res.outlier]),
+            "spacing_members_m": _spacing_of(res.xyz[beams & ~res.outlier]),
+        }
+        if result is None:
+            s = {
+                "error": error,
+                "reached": False,
+                "targets": dict.fromkeys(
+                    ("count_exact", "all_matched_f1_05", "median_f1_095", "size_1cm", "axis_1deg"),
+                    False,
+                ),
+                "median_f1": 0.0,
+                "n_members": P["n_members"],
+            }
+        else:
+            s = member_scores(sim, result)
+        row = emit(
+            dataset=f"roof/seed{seed}",
+            metric="beams_family_draw",
+            value=s["median_f1"],
+            seed=seed,
+            **key,
+            **spacing,
+            **s,
+            gen_time_s=round(t_gen, 2),
+            time_s=round(t_step, 2),
+            points_per_s=len(res) / max(t_step, 1e-9),
+            load_avg_1min=_load(),
+        )
+        rows.append(row)
+    names = list(rows[0]["targets"])
+    fails = [sum(not r["targets"][k] for k in names) for r in rows]
+    worst = min(range(len(rows)), key=lambda i: (-fails[i], rows[i]["median_f1"]))
+    total: dict[str, Counter] = {}
+    for r in rows:
+        for key in ("lost_by_role", "lost_fate", "spurious", "cut_short_by_role"):
+            total.setdefault(key, Counter()).update(r.get(key, {}))
+        for cname, per in r.get("contaminated", {}).items():
+            total.setdefault(f"contaminated_{cname}", Counter()).update(per)
+    sums = {
+        k: int(sum(r.get(k, 0) for r in rows))
+        for k in (
+            "n_members",
+            "n_visible",
+            "n_found",
+            "n_matched_f1_05",
+            "n_one_face",
+            "one_face_lost",
+            "multi_face_lost",
+            "n_cut_short",
+            "cut_short_far_end",
+            "split_members",
+            "merged_beams",
+            "n_size_fail",
+            "size_fail_bent",
+            "n_axis_fail",
+        )
+    }
+    emit(
+        dataset="roof",
+        metric="beams_family_sweep_summary",
+        value=float(np.mean([r["reached"] for r in rows])),
+        seeds=[first, first + n - 1],
+        n_draws=n,
+        share_all_targets=float(np.mean([r["reached"] for r in rows])),
+        target_pass_share={k: float(np.mean([r["targets"][k] for r in rows])) for k in names},
+        worst_seed=rows[worst]["seed"],
+        worst_targets_failed=fails[worst],
+        worst_median_f1=rows[worst]["median_f1"],
+        median_of_median_f1=float(np.median([r["median_f1"] for r in rows])),
+        totals=sums,
+        failure_modes={k: dict(v) for k, v in total.items()},
+        gen_time_total_s=round(t_gen_total, 1),
+        step_time_total_s=round(float(sum(r["time_s"] for r in rows)), 1),
+        target="count exact, every member F1 >= 0.5, median F1 >= 0.95, width/height <= 1 cm "
+        "(members seen on >= 2 faces), axis <= 1 deg",
+    )
+
+
 if __name__ == "__main__":
     emit(dataset="machine", metric="load_avg_1min", value=_load(), cpus=os.cpu_count())
+    if SWEEP is not None:
+        sweep(SWEEP, FIRST_SEED or 0)
+        sys.exit(0)
     if SEEDS:
         bench_seeds()
         sys.exit(0)

@@ -10,7 +10,11 @@ with 0.6 m walls, 24 windows (8 on each long wall, 4 on each gable) of varied si
 each closed by a 2 cm glass pane at mid-wall.  The exterior cloud samples the outer
 faces, the window reveals down to the outer face of the pane, the pane, the roof and
 a ground ring (noise 5 mm); the interior cloud the inner faces, reveals down to the
-inner face of the pane, floor and ceiling (noise 3 mm).
+inner face of the pane, floor and ceiling (noise 3 mm).  Each side is a
+:class:`~pyheracles.synthetic.scene.Scene` sampled uniformly through the scan
+simulator (:class:`~pyheracles.synthetic.scanner.SurfaceSampling`, no occlusion: the
+idealised union of this named scene); the ray-traced version of the same case is
+``pyheracles.synthetic.families.simulate("church", seed, layout="thesis")``.
 
 Frames: ``world`` is a national grid (Lambert-93-like 7-digit coordinates); the
 exterior cloud is in an arbitrary photogrammetric model frame (similarity, scale !=
@@ -28,11 +32,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+import shapely
 from numpy.typing import NDArray
+from shapely.geometry import box
 
 from pyheracles.cloud import PointCloud
 from pyheracles.registration.points import PointList
 from pyheracles.registration.similarity import similarity_matrix
+from pyheracles.synthetic.scanner import SurfaceSampling, scan
+from pyheracles.synthetic.scene import Scene
 
 __all__ = ["ChurchParams", "ChurchScene", "make_church"]
 
@@ -111,21 +119,7 @@ class ChurchScene:
         return np.linalg.inv(self.T_world_exterior) @ self.T_world_interior
 
 
-# ----------------------------------------------------------------------------- sampling
-def _rect(
-    rng: np.random.Generator,
-    origin: NDArray[np.float64],
-    a: NDArray[np.float64],
-    b: NDArray[np.float64],
-    spacing: float,
-) -> NDArray[np.float64]:
-    """Uniform random points on the parallelogram ``origin + s a + t b``, s, t in [0, 1]."""
-    area = float(np.linalg.norm(np.cross(a, b)))
-    n = max(round(area / spacing**2), 0)
-    st = rng.random((n, 2))
-    return origin + st[:, :1] * a + st[:, 1:] * b
-
-
+# ----------------------------------------------------------------------------- surfaces
 @dataclass(frozen=True)
 class _Wall:
     origin: NDArray[np.float64]  # outer face, bottom, u = 0
@@ -160,99 +154,115 @@ def _windows(p: ChurchParams, rng: np.random.Generator) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _face_minus_openings(pts_uz: NDArray[np.float64], wins: pd.DataFrame) -> NDArray[np.bool_]:
-    keep = np.ones(len(pts_uz), bool)
-    for w in wins.itertuples():  # one mask per window (24), vectorised over points
-        inside = (
-            (np.abs(pts_uz[:, 0] - w.u_center) < w.width / 2)
-            & (pts_uz[:, 1] > w.sill)
-            & (pts_uz[:, 1] < w.sill + w.height)
-        )
-        keep &= ~inside
-    return keep
+def _wall_frame(wall: _Wall) -> NDArray[np.float64]:
+    """Rows (u, z, into the wall) of a wall's face frame."""
+    return np.vstack([wall.u, [0.0, 0.0, 1.0], wall.d])
 
 
-def _shell(
-    p: ChurchParams, wins: pd.DataFrame, rng: np.random.Generator, side: str
-) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
-    """Points (building frame) and surface codes seen from ``side`` ('exterior'/'interior')."""
+def _side_scene(
+    p: ChurchParams, wins: pd.DataFrame, side: str, targets: NDArray[np.float64]
+) -> Scene:
+    """The surfaces seen from ``side`` ('exterior'/'interior'), parts named by surface code.
+
+    Exterior: outer wall faces, the reveals down to the outer face of the pane, the
+    pane's outer face, the flat roof and a 3 m ground ring; interior: inner faces, the
+    reveals from the pane's inner face, its inner face, floor (code 5) and ceiling.
+    Sphere targets without their bottom cap (hidden by the tripod).
+    """
     t, half = p.wall_m, p.pane_m / 2
-    ez = np.array([0, 0, 1.0])
     H = p.height_m if side == "exterior" else p.height_m - t
-    parts: list[NDArray[np.float64]] = []
-    codes: list[NDArray[np.uint8]] = []
-
-    def add(x: NDArray[np.float64], code: int) -> None:
-        parts.append(x)
-        codes.append(np.full(len(x), code, np.uint8))
-
+    scene = Scene()
+    names = SURFACE_CODES
     for wall_id, wall in enumerate(_walls(p)):
         ww = wins[wins.wall == wall_id]
         if side == "exterior":
             depth, u0, u1, d_a, d_b = 0.0, 0.0, wall.length, 0.0, t / 2 - half
         else:
             depth, u0, u1, d_a, d_b = t, t, wall.length - t, t / 2 + half, t
-        o = wall.origin + depth * wall.d + u0 * wall.u
-        face = _rect(rng, o, (u1 - u0) * wall.u, H * ez, p.spacing_m)
-        uz = np.column_stack([(face - wall.origin) @ wall.u, face[:, 2]])
-        add(face[_face_minus_openings(uz, ww)], 1)
-        sp = p.window_spacing_m
+        R = _wall_frame(wall)
+        holes = [
+            box(w.u_center - w.width / 2, w.sill, w.u_center + w.width / 2, w.sill + w.height)
+            for w in ww.itertuples()
+        ]
+        face = box(u0, 0.0, u1, H).difference(shapely.union_all(holes))
+        scene.add_prism(
+            face, wall.origin + depth * wall.d, R, 0.0, faces="front", sides=False, part=names[1]
+        )
+        ez = np.array([0.0, 0.0, 1.0])
         for w in ww.itertuples():  # 24 windows in all
             ua, ub = w.u_center - w.width / 2, w.u_center + w.width / 2
             za, zb = w.sill, w.sill + w.height
-            base = wall.origin + d_a * wall.d
-            dd = (d_b - d_a) * wall.d
-            # four reveals between the face and the pane
-            add(_rect(rng, base + ua * wall.u + za * ez, dd, (zb - za) * ez, sp), 2)
-            add(_rect(rng, base + ub * wall.u + za * ez, dd, (zb - za) * ez, sp), 2)
-            add(_rect(rng, base + ua * wall.u + za * ez, dd, (ub - ua) * wall.u, sp), 2)
-            add(_rect(rng, base + ua * wall.u + zb * ez, dd, (ub - ua) * wall.u, sp), 2)
+            c = [
+                wall.origin + ua * wall.u + za * ez,
+                wall.origin + ub * wall.u + za * ez,
+                wall.origin + ub * wall.u + zb * ez,
+                wall.origin + ua * wall.u + zb * ez,
+            ]
+            for i in range(4):  # four reveals between the face and the pane
+                a, b = c[i], c[(i + 1) % 4]
+                scene.add_quad(
+                    [a + d_a * wall.d, b + d_a * wall.d, b + d_b * wall.d, a + d_b * wall.d],
+                    part=names[2],
+                )
             pane_depth = t / 2 - half if side == "exterior" else t / 2 + half
-            pane_o = wall.origin + pane_depth * wall.d + ua * wall.u + za * ez
-            add(_rect(rng, pane_o, (ub - ua) * wall.u, (zb - za) * ez, sp), 3)
+            scene.add_quad([x + pane_depth * wall.d for x in c], part=names[3])
     L, W = p.length_m, p.width_m
+    flat = np.eye(3)
     if side == "exterior":
-        add(
-            _rect(rng, np.array([0, 0, H]), np.array([L, 0, 0]), np.array([0, W, 0]), p.spacing_m),
-            4,
+        scene.add_prism(
+            box(0, 0, L, W), [0, 0, H], flat, 0.0, faces="front", sides=False, part=names[4]
         )
-        ring = 3.0
-        g = _rect(
-            rng,
-            np.array([-ring, -ring, 0.0]),
-            np.array([L + 2 * ring, 0, 0]),
-            np.array([0, W + 2 * ring, 0]),
-            p.spacing_m,
-        )
-        inside = (g[:, 0] > 0) & (g[:, 0] < L) & (g[:, 1] > 0) & (g[:, 1] < W)
-        add(g[~inside], 5)
+        ring = box(-3.0, -3.0, L + 3.0, W + 3.0).difference(box(0, 0, L, W))
+        scene.add_prism(ring, [0, 0, 0], flat, 0.0, faces="front", sides=False, part=names[5])
     else:
-        lo = np.array([t, t, 0.0])
-        add(
-            _rect(rng, lo, np.array([L - 2 * t, 0, 0]), np.array([0, W - 2 * t, 0]), p.spacing_m), 5
-        )
-        add(
-            _rect(
-                rng,
-                lo + np.array([0, 0, H]),
-                np.array([L - 2 * t, 0, 0]),
-                np.array([0, W - 2 * t, 0]),
-                p.spacing_m,
-            ),
-            4,
-        )
-    return np.vstack(parts), np.concatenate(codes)
+        inner = box(t, t, L - t, W - t)
+        scene.add_prism(inner, [0, 0, 0], flat, 0.0, faces="front", sides=False, part=names[5])
+        scene.add_prism(inner, [0, 0, H], flat, 0.0, faces="front", sides=False, part=names[4])
+    for c in targets:  # the bottom cap below 30 deg under the equator is hidden
+        scene.add_triangles(_cap_sphere(c, p.target_radius_m), part=names[6])
+    return scene
 
 
-def _sphere_points(
-    rng: np.random.Generator, centres: NDArray[np.float64], radius: float, spacing: float
-) -> NDArray[np.float64]:
-    n = max(int(4 * np.pi * radius**2 / spacing**2), 20)
-    v = rng.normal(size=(len(centres), n, 3))
-    v /= np.linalg.norm(v, axis=2, keepdims=True)
-    keep = v[..., 2] > -0.5  # the bottom cap is hidden by the tripod
-    pts = centres[:, None, :] + radius * v
-    return pts[keep]
+def _cap_sphere(centre: NDArray[np.float64], radius: float, n: int = 48) -> NDArray[np.float64]:
+    """Triangles of a sphere without its bottom cap (polar angle up to 120 deg)."""
+    th = np.linspace(0.0, np.radians(120.0), n // 3 + 1)
+    ph = np.linspace(0.0, 2 * np.pi, n + 1)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    pts = centre + radius * np.stack(
+        [np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1
+    )
+    a, b, c, d = pts[:-1, :-1], pts[:-1, 1:], pts[1:, 1:], pts[1:, :-1]
+    tris = np.concatenate(
+        [np.stack([a, b, c], -2).reshape(-1, 3, 3), np.stack([a, c, d], -2).reshape(-1, 3, 3)]
+    )
+    area = np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
+    return tris[area > 1e-12]
+
+
+def _sample_side(
+    p: ChurchParams,
+    wins: pd.DataFrame,
+    side: str,
+    targets: NDArray[np.float64],
+    noise: float,
+    rng: np.random.Generator,
+) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
+    """Points (building frame, with noise) and surface codes: the side's surfaces sampled
+    uniformly through the scan simulator (:class:`~pyheracles.synthetic.scanner.SurfaceSampling`:
+    walls, roof, ceiling, floor and ground at ``spacing_m``, reveals and panes at
+    ``window_spacing_m``, spheres at ``target_spacing_m``)."""
+    scene = _side_scene(p, wins, side, targets)
+    n = SURFACE_CODES
+    acq = [
+        SurfaceSampling(p.spacing_m, noise, parts=(n[1], n[4], n[5])),
+        SurfaceSampling(p.window_spacing_m, noise, parts=(n[2], n[3])),
+        SurfaceSampling(p.target_spacing_m, noise, parts=(n[6],)),
+    ]
+    res = scan(scene, acq, rng=rng)
+    code_of = np.zeros(max(scene.part_names) + 1, np.uint8)
+    for k, name in scene.part_names.items():
+        code_of[k] = next((c for c, v in n.items() if v == name), 0)
+    return res.xyz, code_of[res.part]
 
 
 def _corners(p: ChurchParams, wins: pd.DataFrame) -> NDArray[np.float64]:
@@ -341,11 +351,8 @@ def make_church(
         ("exterior", ext_targets, p.exterior_noise_m),
         ("interior", int_targets, p.interior_noise_m),
     ):
-        pts, codes = _shell(p, wins, gen, side)
-        sph = _sphere_points(gen, targets, p.target_radius_m, p.target_spacing_m)
-        pts = np.vstack([pts, sph])
-        codes = np.concatenate([codes, np.full(len(sph), 6, np.uint8)])
-        world = to_world(pts) + gen.normal(0.0, noise, pts.shape)
+        pts, codes = _sample_side(p, wins, side, targets, noise, gen)
+        world = to_world(pts)
         order = gen.permutation(len(world))
         clouds[side] = (world[order], codes[order])
     ext_world, ext_codes = clouds["exterior"]

@@ -25,7 +25,15 @@ from numpy.typing import NDArray
 
 from pyheracles.errors import InputError
 
-__all__ = ["Beam", "SyntheticTruss", "TrussParams", "make_truss_roof", "scan_boxes"]
+__all__ = [
+    "Beam",
+    "SyntheticTruss",
+    "TrussParams",
+    "default_scanners",
+    "make_truss_roof",
+    "scan_boxes",
+    "truss_beams",
+]
 
 
 @dataclass(frozen=True)
@@ -197,7 +205,8 @@ def truss_beams(params: TrussParams) -> list[Beam]:
     return beams
 
 
-def _default_scanners(params: TrussParams) -> NDArray[np.float64]:
+def default_scanners(params: TrussParams) -> NDArray[np.float64]:
+    """The ``params.n_scanners`` default scanner positions ``(S, 3)`` below the trusses."""
     xs = np.arange(params.n_trusses) * params.truss_spacing_m
     zc = params.scanner_height_m
     half = params.span_m / 2.0
@@ -314,7 +323,7 @@ def make_truss_roof(
         raise InputError(f"noise_m must be >= 0, got {p.noise_m}")
     gen = np.random.default_rng(rng)
     beams = truss_beams(p)
-    scn = _default_scanners(p) if scanners is None else np.asarray(scanners, float).reshape(-1, 3)
+    scn = default_scanners(p) if scanners is None else np.asarray(scanners, float).reshape(-1, 3)
     if len(scn) == 0:
         raise InputError("at least one scanner position is needed")
     # calibrate the angular step: hits scale with 1 / step^2
