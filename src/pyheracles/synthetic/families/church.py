@@ -9,9 +9,16 @@ targets (control and check points) and scans it twice:
 
 * ``interior``: several TLS stations inside (a registered union), with a
   fine scan of each target a station sees;
-* ``exterior``: photogrammetry (a ring of terrestrial views and a higher
-  ring, plus close-up views of each target; glass gives no match) or TLS
-  stations around the building.
+* ``exterior``: photogrammetry (stereo pairs on a terrestrial ring and a
+  higher ring, plus close-up views of each target; glass gives no match) or
+  TLS stations around the building;
+* in 60 % of the draws, window detail scans in both clouds (a finer region
+  scan, or oblique close-up pairs of photographs, of each window).
+
+Stations, rays and budgets: :mod:`~pyheracles.synthetic.families.church_survey`;
+the building: :mod:`~pyheracles.synthetic.families.church_layout` (walls and
+openings through :mod:`~pyheracles.synthetic.families.church_geometry`); the
+site (furniture, ground, gravestones): :mod:`~pyheracles.synthetic.families.church_site`.
 
 Glass (:data:`~pyheracles.synthetic.scene.GLASS`) returns few and weak TLS
 points; most beams go through and return from what lies behind.

@@ -459,6 +459,9 @@ def add_wall(scene: Scene, wall: Wall) -> list[dict[str, Any]]:
                         class_name="door",
                     )
                 _, R = wall.frame()
+                lo, hi = ring.min(axis=0), ring.max(axis=0)
+                box = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+                cz = Polygon(ring).centroid
                 objects.append(
                     {
                         "instance": op.instance,
@@ -471,9 +474,13 @@ def add_wall(scene: Scene, wall: Wall) -> list[dict[str, Any]]:
                         "leaf_thickness_m": op.pane_thickness_m,
                         "depth_from_outer_face_m": op.pane_depth_m,
                         "outline_m": wall.to_3d(ring, op.pane_depth_m).tolist(),
+                        "box_corners_m": wall.to_3d(box, op.pane_depth_m).tolist(),
                         "plane": {
                             "normal": (-R[2]).tolist(),
-                            "point": wall.to_3d(ring, op.pane_depth_m).mean(0).tolist(),
+                            "point": wall.to_3d(np.array([[cz.x, cz.y]]), op.pane_depth_m)[
+                                0
+                            ].tolist(),
+                            "what": "door leaf mid-plane; normal points outwards",
                         },
                     }
                 )
