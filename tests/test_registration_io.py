@@ -129,3 +129,42 @@ def test_checkpoint_report_and_map(tmp_path: Path) -> None:
     assert rep.to_dict()["points"][0]["id"] == "CP0"
     with pytest.raises(InputError, match="no check points"):
         check_points(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+def test_apply_to_cloud_keeps_extra_bytes_and_vlrs_but_not_the_old_crs(tmp_path: Path) -> None:
+    import laspy
+    from pyproj import CRS
+
+    from pyheracles.io import read_cloud, write_cloud
+
+    n = 200
+    rng = np.random.default_rng(3)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.add_extra_dims([laspy.ExtraBytesParams("reflectance_db", "f4")])
+    header.vlrs.append(laspy.VLR("survey", 7, "station log", b"station A, 2026-11-30"))
+    header.add_crs(CRS.from_epsg(2056))
+    header.scales = np.full(3, 0.001)
+    header.offsets = np.array([2600000.0, 1200000.0, 400.0])
+    las = laspy.LasData(header)
+    xyz = rng.uniform(0, 20, (n, 3)) + header.offsets
+    las.x, las.y, las.z = xyz.T
+    las.reflectance_db = rng.uniform(-20, 0, n).astype(np.float32)
+    las.intensity = rng.integers(1, 60000, n).astype(np.uint16)
+    las.write(tmp_path / "in.las")
+
+    cloud = read_cloud(tmp_path / "in.las")
+    T = similarity_matrix([-2599990.0, -1199990.0, -400.0], [0.0, 0.0, 0.3], 1.0)
+    moved = apply_to_cloud(cloud, T)  # a local frame: no CRS
+    write_cloud(moved, tmp_path / "out.las")
+    back = laspy.read(tmp_path / "out.las")
+    np.testing.assert_allclose(back.reflectance_db, las.reflectance_db)
+    np.testing.assert_array_equal(back.intensity, las.intensity)
+    log = b"station A, 2026-11-30"
+    assert any(v.user_id == "survey" and v.record_data == log for v in back.vlrs)
+    assert back.header.parse_crs() is None  # the Swiss grid no longer describes the points
+    # the source cloud's header is untouched
+    assert cloud.las_header.parse_crs() is not None
+
+    moved_to = apply_to_cloud(cloud, similarity_matrix([0, 0, 0], [0, 0, 0], 1.0), crs="EPSG:2056")
+    write_cloud(moved_to, tmp_path / "same.las")
+    assert laspy.read(tmp_path / "same.las").header.parse_crs().to_epsg() == 2056

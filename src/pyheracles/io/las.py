@@ -26,6 +26,7 @@ Writing
 
 from __future__ import annotations
 
+import copy
 import struct
 from collections.abc import Mapping
 from pathlib import Path
@@ -39,7 +40,7 @@ from pyheracles.cloud import PointCloud, reject_non_finite
 from pyheracles.errors import HeraclesError, InputError
 from pyheracles.io.atomic import atomic_path
 
-__all__ = ["read_las", "write_las"]
+__all__ = ["read_las", "without_crs", "write_las"]
 
 _DEFAULT_SCALE = 0.001  # metres; 1 mm, the resolution the design promises
 _SCAN_ANGLE_UNIT_DEG = 0.006  # LAS 1.4 scan_angle unit (formats 6-10)
@@ -260,6 +261,23 @@ def _extra_params(
             hint="LAS extra bytes hold 1 to 3 numbers of 1, 2, 4 or 8 bytes per point",
         )
     return laspy.ExtraBytesParams(name, f"{count}{base}" if count > 1 else base), arr
+
+
+def without_crs(header: laspy.LasHeader | None) -> laspy.LasHeader | None:
+    """A copy of a LAS header without its coordinate system (GeoTIFF keys and WKT VLRs).
+
+    For clouds moved into another frame (registration, georeferencing): the other
+    VLRs and EVLRs (extra-byte descriptions, project records) still describe the
+    points, the source's CRS no longer does.  ``None`` stays ``None``.
+    """
+    if header is None:
+        return None
+    from laspy.vlrs.vlrlist import VLRList
+
+    out = copy.deepcopy(header)
+    out.vlrs = VLRList([v for v in out.vlrs if type(v).__name__ not in _CRS_VLRS])
+    out.evlrs = VLRList([e for e in (out.evlrs or []) if type(e).__name__ not in _CRS_VLRS])
+    return out
 
 
 def _header_for(

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import InputError
+from pyheracles.io.las import without_crs
 
 __all__ = [
     "apply_to_cloud",
@@ -82,6 +83,12 @@ def apply_to_cloud(
         metres.
     crs
         CRS of the target frame (e.g. the national grid of the control points).
+
+    Notes
+    -----
+    The source's LAS header rides along without its CRS records
+    (:func:`pyheracles.io.las.without_crs`): extra-byte descriptions and the other
+    VLRs still describe the points, the old coordinate system does not.
     """
     M = _check(T_target_source)
     A = M[:3, :3]
@@ -95,6 +102,7 @@ def apply_to_cloud(
         crs=crs,
         scale=cloud.scale,
         source=cloud.source,
+        las_header=without_crs(cloud.las_header),
     )
 
 
