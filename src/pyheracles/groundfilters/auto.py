@@ -14,8 +14,8 @@ from numpy.typing import NDArray
 
 from pyheracles.groundfilters.csf import CSFParams
 from pyheracles.groundfilters.refine import RefineParams
-from pyheracles.groundfilters.smrf import SMRFParams, _opening
-from pyheracles.groundfilters.surface import Grid, _gradient, inpaint, rasterise
+from pyheracles.groundfilters.smrf import SMRFParams, opening
+from pyheracles.groundfilters.surface import Grid, gradient, inpaint, rasterise
 
 __all__ = [
     "DEFAULT_MAX_OBJECT_SIZE_M",
@@ -88,8 +88,8 @@ def terrain_slope(xyz: NDArray[np.float64], *, spacing_m: float, max_object_size
     if observed.sum() < 4:
         return 0.0
     radius = max(1, int(np.ceil(0.5 * max_object_size_m / cell)))
-    opened = _opening(inpaint(zmin), radius)
-    gy, gx = _gradient(opened, cell)
+    opened = opening(inpaint(zmin), radius)
+    gy, gx = gradient(opened, cell)
     return float(np.percentile(np.hypot(gx, gy)[observed], 90))
 
 

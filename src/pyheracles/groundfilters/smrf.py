@@ -39,6 +39,7 @@ __all__ = [
     "SMRFParams",
     "low_clusters",
     "low_outliers",
+    "opening",
     "progressive_filter",
     "smrf",
     "terrain_slope_raster",
@@ -154,7 +155,12 @@ def _cross_filter(values: NDArray[np.float64], ufunc: np.ufunc) -> NDArray[np.fl
     return out
 
 
-def _opening(surface: NDArray[np.float64], radius: int) -> NDArray[np.float64]:
+def opening(surface: NDArray[np.float64], radius: int) -> NDArray[np.float64]:
+    """Morphological opening (erosion then dilation) of a raster by a disk of ``radius`` cells.
+
+    The building block of SMRF (Pingel et al. 2013): it removes objects narrower
+    than the disk and keeps the terrain under them.
+    """
     return _disk_filter(_disk_filter(surface, radius, "min"), radius, "max")
 
 
@@ -205,7 +211,7 @@ def progressive_filter(
     is_object = np.zeros(surface.shape, dtype=bool)
     last = surface
     for radius in range(1, max_radius + 1):
-        opened = _opening(last, radius)
+        opened = opening(last, radius)
         allowed = slope * radius * cell_m
         if extra_slope is not None and radius <= extra_max_radius:
             allowed = allowed + extra_slope * (radius * cell_m)
@@ -285,7 +291,7 @@ def low_clusters(
     low = np.zeros(surface.shape, dtype=bool)
     last = -surface
     for radius in range(1, max_radius + 1):
-        opened = _opening(last, radius)
+        opened = opening(last, radius)
         low |= (last - opened) > drop_m
         last = opened
     return low
@@ -299,7 +305,7 @@ def terrain_slope_raster(
     The gap-free minimum surface opened with the largest window (what no object survives)
     is smoothed with a box of that window and its gradient taken.
     """
-    trend = _opening(surface, max_radius)
+    trend = opening(surface, max_radius)
     trend = ndimage.uniform_filter(trend, size=max_radius + 1, mode="nearest")
     rows, cols = trend.shape
     gx = np.gradient(trend, cell_m, axis=1) if cols > 1 else np.zeros_like(trend)

@@ -25,6 +25,7 @@ __all__ = [
     "Grid",
     "RasterSampler",
     "dtm_from_ground",
+    "gradient",
     "height_above_ground",
     "inpaint",
     "mean_surface",
@@ -242,7 +243,7 @@ def sample_raster(
     return RasterSampler(grid, xy)(values)
 
 
-def _gradient(values: NDArray[np.float64], cell_m: float) -> tuple[NDArray, NDArray]:
+def gradient(values: NDArray[np.float64], cell_m: float) -> tuple[NDArray, NDArray]:
     """(d/dy, d/dx) of a raster, with y growing northwards (rows grow southwards)."""
     rows, cols = values.shape
     gx = np.gradient(values, cell_m, axis=1) if cols > 1 else np.zeros_like(values)
@@ -287,7 +288,7 @@ def _mean_surface_cells(
     rr, cc = np.indices(grid.shape)
     dx = grid.x0_m + (cc + 0.5) * grid.cell_m - mx
     dy = grid.y0_m - (rr + 0.5) * grid.cell_m - my
-    gy, gx = _gradient(mz, grid.cell_m)
+    gy, gx = gradient(mz, grid.cell_m)
     shift = np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
     return mz + shift
 
@@ -573,7 +574,7 @@ class DTM:
 
     def slope(self) -> NDArray[np.float64]:
         """Terrain slope per cell as rise over run (dimensionless, 1.0 = 45°)."""
-        gy, gx = _gradient(self.z_m, self.grid.cell_m)
+        gy, gx = gradient(self.z_m, self.grid.cell_m)
         return np.hypot(gx, gy)
 
     def transform(self, offset: NDArray[np.float64] | None = None) -> Affine:
