@@ -110,6 +110,52 @@ def fit_sphere(
     )
 
 
+def _sphere_hypotheses(
+    pts: NDArray[np.float64], radius: float, trials: int, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Centres of spheres through 4 nearby points whose radius is within 20 % of ``radius``.
+
+    Samples are local (a seed and three of its neighbours within 1.5 radii), so a
+    sphere that holds a tenth of the points near a wall is still sampled often; a
+    global 4-point draw would need tens of thousands of trials.
+    """
+    tree = cKDTree(pts)
+    seeds = rng.integers(0, len(pts), trials)
+    k = min(24, len(pts))
+    dist, nb = tree.query(pts[seeds], k=k, distance_upper_bound=1.5 * radius)
+    valid = np.isfinite(dist)
+    valid[:, 0] = False  # the seed itself
+    enough = valid.sum(axis=1) >= 3
+    if not enough.any():
+        return np.zeros((0, 3))
+    seeds, nb, valid = seeds[enough], nb[enough], valid[enough]
+    # three distinct valid neighbours per seed: random keys, invalid ones last
+    keys = np.where(valid, rng.random(valid.shape), 2.0)
+    pick = np.take_along_axis(nb, np.argsort(keys, axis=1)[:, :3], axis=1)
+    quad = pts[np.column_stack([seeds, pick])]  # (T, 4, 3)
+    m = quad.mean(axis=1, keepdims=True)
+    q = quad - m
+    A = np.concatenate([2 * q, np.ones((len(q), 4, 1))], axis=2)
+    b = np.sum(q**2, axis=2)
+    ok = np.abs(np.linalg.det(A)) > 1e-18
+    sol = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    c = sol[:, :3]
+    r = np.sqrt(np.clip(sol[:, 3] + np.sum(c**2, axis=1), 0, None))
+    good = np.abs(r - radius) < 0.2 * radius
+    return c[good] + m[ok][good, 0]
+
+
+def _cap_spread(pts: NDArray[np.float64], centre: NDArray[np.float64]) -> float:
+    """Smallest variance of the unit directions from the centre to the points.
+
+    About 0.08 for a scanned hemisphere, 0.01 for a 50 deg cap, and near 0 for the
+    ring where a plane (a wall) cuts a hypothetical sphere.
+    """
+    d = pts - centre
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return float(np.linalg.eigvalsh(np.cov(d.T))[0])
+
+
 def measure_sphere(
     xyz: NDArray[np.float64],
     approx: ArrayLike,
@@ -118,12 +164,30 @@ def measure_sphere(
     tree: cKDTree | None = None,
     search_m: float | None = None,
     max_residual_m: float = 0.01,
+    min_cap_spread: float = 0.005,
+    rng: np.random.Generator | int | None = 0,
 ) -> SphereTarget:
     """Centre of a sphere target of known radius near ``approx``.
 
-    Points within ``search_m`` (default 2.5 x radius) of ``approx`` are fitted; points
-    farther than ``max_residual_m`` from the first sphere (tripod, wall, ground) are
-    dropped and the sphere refitted.
+    The points within ``search_m`` (default 2.5 x radius) of ``approx`` hold the
+    sphere and whatever it stands on or next to: a wall, the floor, a tripod.  The
+    sphere is found by RANSAC on local 4-point samples with the known radius (the
+    hypothesis with most points within a tight gate wins), then refined by a robust
+    least-squares fit on its own points, re-gated three times at three robust
+    standard deviations (at least 1.5 mm, at most twice the RANSAC gate and
+    ``max_residual_m``).  A fit on all
+    the points of the ball (the former method) was pulled 6-8 cm towards a wall
+    whose points near the sphere passed the residual gate.
+
+    Parameters
+    ----------
+    max_residual_m
+        Widest gate between a point and the sphere, metres.
+    min_cap_spread
+        The sphere's points must cover a cap of at least about 40 deg half-angle
+        (smallest variance of their unit directions from the centre, see
+        :func:`_cap_spread`); a plane cut by a hypothetical sphere gives a ring and
+        no target.
 
     Raises
     ------
@@ -131,6 +195,7 @@ def measure_sphere(
         Too few points near the approximate position or no sphere found there.
     """
     a = np.asarray(approx, dtype=np.float64).reshape(3)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     tr = tree if tree is not None else cKDTree(xyz)
     search = search_m or 2.5 * radius
     idx = np.asarray(tr.query_ball_point(a, search), dtype=int)
@@ -141,15 +206,43 @@ def measure_sphere(
             hint="check the approximate coordinates (same frame as the cloud) or the radius",
         )
     pts = xyz[idx]
-    fit = fit_sphere(pts, radius)
+    none_here = DegenerateGeometryError(
+        f"no sphere of radius {radius} m near {np.round(a, 3).tolist()}",
+        hint="check the approximate position and the target radius",
+    )
+    gate = min(max_residual_m, max(0.05 * radius, 0.0015))
+    centres = _sphere_hypotheses(pts, radius, 600, gen)
+    if len(centres) == 0:
+        raise none_here
+    # MSAC score of each hypothesis, in chunks to bound memory
+    best, best_cost = None, np.inf
+    for lo in range(0, len(centres), 64):
+        c = centres[lo : lo + 64]
+        r = np.abs(np.linalg.norm(pts[None] - c[:, None], axis=2) - radius)
+        cost = np.minimum(r, gate) ** 2
+        total = cost.sum(axis=1)
+        j = int(np.argmin(total))
+        if total[j] < best_cost:
+            best, best_cost = c[j], float(total[j])
+    keep = np.abs(np.linalg.norm(pts - best, axis=1) - radius) < gate
+    if keep.sum() < 10:
+        raise none_here
+    fit = fit_sphere(pts[keep], radius)
     for _ in range(3):
-        d = np.abs(np.linalg.norm(pts - fit.centre, axis=1) - radius)
-        keep = d < max_residual_m
+        res = np.linalg.norm(pts[keep] - fit.centre, axis=1) - radius
+        noise = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+        # never wider than twice the RANSAC gate: a widening gate lets a wall back in
+        g = min(max_residual_m, 2 * gate, max(3 * noise, 0.0015))
+        keep = np.abs(np.linalg.norm(pts - fit.centre, axis=1) - radius) < g
         if keep.sum() < 10:
-            raise DegenerateGeometryError(
-                f"no sphere of radius {radius} m near {np.round(a, 3).tolist()}"
-            )
+            raise none_here
         fit = fit_sphere(pts[keep], radius)
+    if _cap_spread(pts[keep], fit.centre) < min_cap_spread:
+        raise DegenerateGeometryError(
+            f"the points near {np.round(a, 3).tolist()} fit a sphere of radius {radius} m only "
+            "on a ring (a plane cut by it): no target there",
+            hint="check the approximate position and the target radius",
+        )
     if np.linalg.norm(fit.centre - a) > search:
         raise EstimationError(
             f"the sphere fitted near {np.round(a, 3).tolist()} lies "
