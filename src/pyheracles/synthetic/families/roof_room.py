@@ -17,12 +17,8 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from pyheracles.synthetic.families.roof_frame import (
-    Member,
-    RoofLevels,
-    obb_distance_to_point,
-    obb_overlap_many,
-)
+from pyheracles.synthetic.families.boxes import obb_distance_to_point, obb_overlap_many
+from pyheracles.synthetic.families.roof_frame import Member, RoofLevels
 from pyheracles.synthetic.scene import STONE, TIMBER, Scene
 
 __all__ = [

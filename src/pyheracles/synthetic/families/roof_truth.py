@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.synthetic.families.roof_frame import Member, obb_overlap_many
+from pyheracles.synthetic.families.boxes import obb_overlap_many
+from pyheracles.synthetic.families.roof_frame import Member
 
 __all__ = ["FACE_MIN_POINTS", "JOINT_TOL_M", "faces_seen", "find_joints"]
 
