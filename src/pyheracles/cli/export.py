@@ -3,7 +3,8 @@
 One sub-command per format, each in its own function below:
 
 * ``heracles export cityjson RESULT_DIR -o city.json`` (3D GIS, CityJSON 2.0);
-* ``heracles export ifc ...`` (BIM; added by the IFC module).
+* ``heracles export ifc ...`` (BIM; added by the IFC module);
+* ``heracles export training RESULT_DIR -o DIR --format ply|npz|s3dis`` (deep learning).
 
 Every command reads a result folder written by another ``heracles`` command.
 """
@@ -18,8 +19,9 @@ __all__ = ["export_app", "register"]
 
 export_app = typer.Typer(
     name="export",
-    help="Export results to other tools' formats. Writes the file given with -o: CityJSON "
-    "2.0 for 3D GIS (export cityjson) or IFC 4 for BIM (export ifc).",
+    help="Export results to other tools' formats. Writes what -o names: CityJSON 2.0 for "
+    "3D GIS (export cityjson), IFC 4 for BIM (export ifc), or a folder of labelled blocks "
+    "for deep learning (export training).",
     no_args_is_help=True,
 )
 
@@ -125,6 +127,65 @@ def _ifc_cmd(
 
 
 export_app.command("ifc")(_ifc_cmd)
+
+
+# --------------------------------------------------------------------------- training
+def _training_cmd(
+    result_dir: Path = typer.Argument(
+        ..., metavar="RESULT_DIR", help="Output folder of a heracles step (segmented.laz)."
+    ),
+    out: Path = typer.Option(..., "-o", "--out", help="Folder to write."),
+    fmt: str = typer.Option("ply", "--format", help="ply, npz or s3dis."),
+    block_m: float = typer.Option(10.0, "--block", help="Side of the plan blocks, m (0 = one)."),
+    per_object: bool = typer.Option(True, "--objects/--no-objects", help="One file per object."),
+    class_map: Path | None = typer.Option(
+        None, "--class-map", help='JSON file of extra class names, e.g. {"gate": "wall"}.'
+    ),
+) -> None:
+    """Labelled clouds for deep learning, in blocks, with the ArCH heritage class map.
+
+    Writes DIR/scene/ (or DIR/Area_1/ for s3dis), DIR/objects/, blocks.csv and
+    classes.json (the class map, with the pyheracles classes that went to "other").
+
+    Example:
+
+        heracles export training out/supports -o train/ --format s3dis --block 8
+    """
+    import json
+
+    from pyheracles.cli.common import console, err_console
+    from pyheracles.errors import InputError
+    from pyheracles.export.training import TrainingParams, export_training
+
+    extra: dict[str, str] = {}
+    if class_map is not None:
+        try:
+            extra = json.loads(Path(class_map).read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise InputError(
+                f"unreadable class map: {exc}", path=class_map,
+                hint='give a JSON object of names, e.g. {"gate": "wall"}',
+            ) from exc
+        if not isinstance(extra, dict):
+            raise InputError("the class map is not a JSON object", path=class_map,
+                             hint='e.g. {"gate": "wall"}')  # fmt: skip
+    rep = export_training(
+        result_dir, out,
+        TrainingParams(format=fmt, block_m=block_m, per_object=per_object, class_map=extra),
+    )  # fmt: skip
+    if rep.unmapped:
+        err_console.print(
+            f"[yellow]note:[/] classes {', '.join(rep.unmapped)} went to 'other' "
+            "(map them with --class-map)", highlight=False,
+        )  # fmt: skip
+    shown = ", ".join(f"{k} {v}" for k, v in rep.class_counts.items() if v)
+    console.print(
+        f"[green]wrote[/] {rep.n_points} points in {rep.n_blocks} blocks and "
+        f"{rep.n_objects} object files ({shown}): {out}"
+    )
+
+
+export_app.command("training")(_training_cmd)
 
 
 # ------------------------------------------------------------------------------- app
