@@ -140,3 +140,31 @@ def test_beam_to_ifc(tmp_path) -> None:
     assert abs(solid.Depth - 4.0) < 1e-3
     assert abs(solid.SweptArea.XDim - 0.12) < 1e-3 and abs(solid.SweptArea.YDim - 0.2) < 1e-3
     assert _surface_rms(ifc, rep.guids[1], pts, OFFSET) < 0.01
+
+
+def test_tapered_column_is_a_solid_of_revolution(tmp_path) -> None:
+    """A column tapering from 0.30 m to 0.22 m with entasis: revolved, within 1 cm."""
+    rng = np.random.default_rng(4)
+    n, h = 12000, 4.5
+    z = rng.uniform(0, h, n)
+    s = z / h
+    r = 0.30 - 0.08 * s + 0.012 * np.sin(np.pi * s)  # taper with a slight swelling
+    t = rng.uniform(0, 2 * np.pi, n)
+    c = OFFSET[:2] + [3.0, 1.0]
+    col = np.c_[c[0] + r * np.cos(t), c[1] + r * np.sin(t), OFFSET[2] + z]
+    col += rng.normal(0, 0.001, col.shape)
+    objects = pd.DataFrame([
+        {"instance": 1, "class": "column", "n_points": n, "x": c[0], "y": c[1],
+         "z_min": OFFSET[2], "z_max": OFFSET[2] + h, "height_m": h, "radius_m": 0.265,
+         "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
+         "box_width_m": np.nan, "box_height_m": np.nan, "fit_rms_m": 0.02, "circularity": 1.0},
+    ])  # fmt: skip
+    folder = _folder(tmp_path, "supports", col, np.ones(n, np.int32), objects)
+    rep = export_ifc(folder, tmp_path / "model.ifc")
+    ifc = _check(tmp_path / "model.ifc", 1)
+    el = ifc.by_guid(rep.guids[1])
+    assert el.Representation.Representations[0].Items[0].is_a("IfcRevolvedAreaSolid")
+    props = ifcopenshell.util.element.get_psets(el)["Heracles_Provenance"]
+    assert abs(props["radius_base_m"] - 0.30) < 0.006 and abs(props["radius_top_m"] - 0.22) < 0.006
+    assert _surface_rms(ifc, rep.guids[1], col, OFFSET) < 0.005
+    # the straight column of test_supports_to_ifc stays an extruded circle (covered there)

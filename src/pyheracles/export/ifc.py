@@ -9,7 +9,9 @@ writes one IFC 4 model:
   the site is georeferenced with IfcMapConversion + IfcProjectedCRS from the
   cloud's CRS (the model's origin is the cloud's offset; no CRS: a local model and
   a note).
-* Columns: IfcColumn (COLUMN) with an extruded circle along the fitted axis;
+* Columns: IfcColumn (COLUMN) with an extruded circle along the fitted axis, or,
+  when the radius measured along the axis changes (taper, entasis), a solid of
+  revolution of the measured radii (:func:`radius_profile`);
   engaged columns: IfcColumn PILASTER; piers: IfcColumn with an extruded rectangle
   (orientation from the pier's points).
 * Beams: IfcBeam (within 10 deg of horizontal) or IfcMember (BRACE when inclined,
@@ -36,7 +38,7 @@ import pandas as pd
 
 from pyheracles.errors import InputError
 
-__all__ = ["IfcReport", "export_ifc", "read_result_folder"]
+__all__ = ["IfcReport", "export_ifc", "radius_profile", "read_result_folder"]
 
 Array = np.ndarray
 
@@ -147,6 +149,21 @@ class _Writer:
         return self.f.createIfcExtrudedAreaSolid(profile, pos, self.direction((0, 0, 1)),
                                                  float(depth))  # fmt: skip
 
+    def revolved(self, profile: Array) -> Any:
+        """Solid of revolution about the local z axis of (radius, height) stations."""
+        ring = [(0.0, float(profile[0, 1])), *map(tuple, profile), (0.0, float(profile[-1, 1]))]
+        pts = [self.f.createIfcCartesianPoint([float(a), float(b)]) for a, b in ring]
+        area = self.f.createIfcArbitraryClosedProfileDef(
+            "AREA", None, self.f.createIfcPolyline([*pts, pts[0]])
+        )
+        # the profile's plane is the element's x-z plane: its y becomes the column axis
+        pos = self.f.createIfcAxis2Placement3D(self.point((0.0, 0.0, 0.0)),
+                                               self.direction((0, -1, 0)),
+                                               self.direction((1, 0, 0)))  # fmt: skip
+        axis = self.f.createIfcAxis1Placement(self.point((0.0, 0.0, 0.0)),
+                                              self.direction((0, 1, 0)))  # fmt: skip
+        return self.f.createIfcRevolvedAreaSolid(area, pos, axis, 2 * math.pi)
+
     def shape(self, solids: list[Any]) -> Any:
         rep = self.f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", solids)
         return self.f.createIfcProductDefinitionShape(None, None, [rep])
@@ -236,6 +253,48 @@ def _unit(v: Array) -> Array | None:
     return None if not math.isfinite(n) or n == 0 else v / n
 
 
+def radius_profile(
+    pts: Array, base: Array, axis: Array, length: float, *, stations: int = 8,
+    min_change_m: float = 0.005,
+) -> Array | None:
+    """(radius, height) of a column at ``stations`` heights, or None for a straight one.
+
+    The radius at a station is the median distance to the fitted axis of the points in
+    its slice; a column is written as a solid of revolution of these radii when they
+    change along it (taper, entasis) by more than ``min_change_m`` and three times the
+    scatter of the points about their slice's radius; else as a cylinder.  The stations
+    run from the base (0) to ``length``; slices with fewer than 20 points are
+    interpolated from their neighbours.
+    """
+    if len(pts) < 20 * stations or not math.isfinite(length) or length <= 0:
+        return None
+    rel = pts - base
+    t = rel @ axis
+    d = np.linalg.norm(rel - np.outer(t, axis), axis=1)
+    edges = np.linspace(0.0, length, stations + 1)
+    k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, stations - 1)
+    r = np.full(stations, np.nan)
+    spread = []
+    for i in range(stations):
+        di = d[k == i]
+        if len(di) >= 20:
+            r[i] = float(np.median(di))
+            spread.append(1.4826 * float(np.median(np.abs(di - r[i]))))
+    ok = np.isfinite(r)
+    if ok.sum() < 3:
+        return None
+    mid = 0.5 * (edges[:-1] + edges[1:])
+    r = np.interp(mid, mid[ok], r[ok])
+    noise = float(np.median(spread))
+    if np.ptp(r) <= max(min_change_m, 3 * noise):
+        return None
+    # end stations from the nearest slices' trend, so the solid spans the whole height
+    lo = r[0] + (r[0] - r[1]) * 0.5
+    hi = r[-1] + (r[-1] - r[-2]) * 0.5
+    radii = np.r_[lo, r, hi]
+    return np.column_stack([np.clip(radii, 1e-3, None), np.r_[0.0, mid, length]])
+
+
 def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
               rep: IfcReport) -> None:  # fmt: skip
     off = np.asarray(cloud.offset, dtype=np.float64)
@@ -268,9 +327,17 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             tilt = math.degrees(math.acos(min(1.0, abs(float(axis[2])))))
             x = np.cross(axis, [0.0, 1.0, 0.0]) if abs(axis[0]) < 0.9 else np.cross(axis, [0, 0, 1])
             place = w.placement(base, axis, x)
-            shape = w.shape([w.solid(w.circle(radius), height / max(abs(axis[2]), 1e-6))])
+            length = height / max(abs(axis[2]), 1e-6)
+            profile = radius_profile(pts, base, axis, length)
             predefined = "PILASTER" if cls == "engaged_column" else "COLUMN"
             dims = {"radius_m": radius}
+            if profile is None:
+                shape = w.shape([w.solid(w.circle(radius), length)])
+            else:  # taper or entasis: the measured radii revolved about the axis
+                shape = w.shape([w.revolved(profile)])
+                dims |= {"radius_base_m": float(profile[0, 0]),
+                         "radius_top_m": float(profile[-1, 0]),
+                         "profile": f"revolved, radii measured at {len(profile)} stations"}
         el = w.element("IfcColumn", f"{cls} {inst}", place, shape, predefined, container)
         w.pset(el, "Heracles_Provenance", {
             "instance": inst, "class": cls, "n_points": int(r["n_points"]),
