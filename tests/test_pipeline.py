@@ -201,3 +201,28 @@ def test_cloud_and_layers_without_crs_get_a_note(tmp_path: Path) -> None:
     )
     notes = json.loads(paths["run"].read_text())["notes"]
     assert any("neither the cloud nor the layers have a CRS" in n for n in notes)
+
+
+def test_pipeline_ifc_puts_each_element_in_its_building(pavilion_site: Path) -> None:
+    pytest.importorskip("ifcopenshell")
+    import ifcopenshell
+    import ifcopenshell.util.element
+    import ifcopenshell.validate
+
+    assert main(["pipeline", str(pavilion_site), "--ifc"]) == 0
+    out = pavilion_site.parent / "out"
+    ifc = ifcopenshell.open(str(out / "model.ifc"))
+    logger = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(ifc, logger)
+    assert not [s for s in logger.statements if s.get("level", "error") == "error"]
+    buildings = {b.Name: b for b in ifc.by_type("IfcBuilding")}
+    assert "Pendopo" in buildings
+    folder = out / "step2" / "supports" / "Pendopo"
+    table = (gpd.read_file(folder / "objects.gpkg") if (folder / "objects.gpkg").exists()
+             else pd.read_csv(folder / "objects.csv"))  # fmt: skip
+    n_supports = int(table["class"].isin(["column", "pier", "engaged_column"]).sum())
+    inside = [e for e in ifcopenshell.util.element.get_decomposition(buildings["Pendopo"])
+              if e.is_a("IfcColumn")]  # fmt: skip
+    assert len(inside) == n_supports == len(ifc.by_type("IfcColumn")) > 0
+    run = __import__("json").loads((out / "run.json").read_text())
+    assert run["ifc"]["elements"]["IfcColumn"] == n_supports

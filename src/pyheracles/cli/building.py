@@ -188,6 +188,9 @@ def register(app: typer.Typer) -> None:
         per_object: Annotated[
             bool, typer.Option("--per-object", help="Also write one LAZ per object.")
         ] = False,
+        ifc: Annotated[
+            bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")
+        ] = False,
         force: Annotated[bool, typer.Option("--force", help="Write into a non-empty folder.")] = (
             False
         ),
@@ -196,7 +199,12 @@ def register(app: typer.Typer) -> None:
 
         from pyheracles import progress
         from pyheracles.building import BuildingParams, objects_in_world, segment_building
-        from pyheracles.cli.common import console, output_dir, print_run_warnings
+        from pyheracles.cli.common import (
+            console,
+            output_dir,
+            print_run_warnings,
+            write_model_ifc,
+        )
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -242,6 +250,9 @@ def register(app: typer.Typer) -> None:
                        "attic_limit_input_z": _input_height(split.limit_z, prepared, z_offset),
                        "height_scores": found.height_scores},
             )  # fmt: skip
+            if ifc:
+                with progress.stage("IFC model"):
+                    write_model_ifc(stage)
             timings["write"] = time.perf_counter() - t
             print_run_warnings(stage)
         n_by = seg.objects["class"].value_counts().to_dict() if len(seg.objects) else {}

@@ -32,6 +32,7 @@ __all__ = [
     "print_run_warnings",
     "run_warnings",
     "set_reports",
+    "write_model_ifc",
     "write_reports",
 ]
 
@@ -252,6 +253,35 @@ def _rename_into_place(stage: Path, path: Path) -> bool:
     except OSError:
         return False
     return True
+
+
+def write_model_ifc(
+    stage: Path,
+    parts: Sequence[tuple[Path, int | None]] | None = None,
+    *,
+    step1_dir: Path | None = None,
+) -> Path:
+    """``model.ifc`` of an output folder (the ``--ifc`` option of supports, beams, walls, pipeline).
+
+    ``parts`` are the step-2 result folders and their step-1 instances (a pipeline
+    run); by default ``stage`` itself.  The exporter's notes are added to the
+    ``notes`` of ``stage/run.json`` (so :func:`print_run_warnings` shows them) with
+    the elements written under ``ifc``.
+    """
+    from pyheracles.export.ifc import export_ifc_folders
+    from pyheracles.io.atomic import atomic_write_json
+
+    path = stage / "model.ifc"
+    rep = export_ifc_folders(list(parts or [(stage, None)]), path, step1_dir=step1_dir,
+                             name=f"pyheracles: {stage.name}")  # fmt: skip
+    run = stage / "run.json"
+    record = json.loads(run.read_text(encoding="utf-8")) if run.exists() else {}
+    notes = record.get("notes")
+    notes = [notes] if isinstance(notes, str) else list(notes or [])
+    record["notes"] = notes + [f"IFC: {n}" for n in rep.notes]
+    record["ifc"] = {"path": "model.ifc", "elements": dict(rep.elements)}
+    atomic_write_json(run, record)
+    return path
 
 
 def run_warnings(folder: Path) -> list[str]:

@@ -84,6 +84,9 @@ def register(app: typer.Typer) -> None:
         voxel_m: Annotated[
             float, typer.Option("--voxel", help="Detection sample cube, metres.")
         ] = 0.06,
+        ifc: Annotated[
+            bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")
+        ] = False,
         force: Annotated[bool, typer.Option("--force", help="Write into a non-empty folder.")] = (
             False
         ),
@@ -93,7 +96,13 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         from pyheracles import progress
-        from pyheracles.cli.common import console, output_dir, print_objects, print_run_warnings
+        from pyheracles.cli.common import (
+            console,
+            output_dir,
+            print_objects,
+            print_run_warnings,
+            write_model_ifc,
+        )
         from pyheracles.errors import InputError
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -123,6 +132,9 @@ def register(app: typer.Typer) -> None:
                        "stage_timings": result.timings},
             )  # fmt: skip
             write_walls_layers(result, cloud, stage)
+            if ifc:
+                with progress.stage("IFC model"):
+                    write_model_ifc(stage)
             timings["write"] = time.perf_counter() - t
             print_run_warnings(stage)
         cols = ["instance", "n_faces", "thickness_m", "length_m", "height_m", "n_windows",

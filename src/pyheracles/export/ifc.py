@@ -38,7 +38,7 @@ import pandas as pd
 
 from pyheracles.errors import InputError
 
-__all__ = ["IfcReport", "export_ifc", "radius_profile", "read_result_folder"]
+__all__ = ["IfcReport", "export_ifc", "export_ifc_folders", "radius_profile", "read_result_folder"]
 
 Array = np.ndarray
 
@@ -445,12 +445,12 @@ def _walls(w: _Writer, folder: Path, cloud: Any, container: Any, rep: IfcReport)
 
 
 def _buildings(w: _Writer, site: Any, step1: str | Path | None,
-               rep: IfcReport) -> list[tuple[Any, Any]]:  # fmt: skip
-    """(IfcBuilding, footprint or None) pairs."""
+               rep: IfcReport) -> list[tuple[Any, Any, int | None]]:  # fmt: skip
+    """(IfcBuilding, footprint or None, step-1 instance or None) triples."""
     if step1 is None:
         b = w.run("root.create_entity", ifc_class="IfcBuilding", name="building")
         w.run("aggregate.assign_object", products=[b], relating_object=site)
-        return [(b, None)]
+        return [(b, None, None)]
     from pyheracles.io.vector import read_layer
 
     path = Path(step1) / "objects.gpkg"
@@ -466,11 +466,30 @@ def _buildings(w: _Writer, site: Any, step1: str | Path | None,
         props = {str(k): (v if isinstance(v, bool | int | float | str) else str(v))
                  for k, v in row.items() if k != geom and not pd.isna(v)}  # fmt: skip
         w.pset(b, "Heracles_GIS", props)
-        out.append((b, row.geometry))
+        inst = row.get("instance")
+        out.append((b, row.geometry, None if pd.isna(inst) else int(inst)))
     if not out:
         rep.notes.append(f"{path} has no objects: one building written")
         return _buildings(w, site, None, rep)
     return out
+
+
+def _container(buildings: list[tuple[Any, Any, int | None]], objects: pd.DataFrame,
+               instance: int | None) -> Any:  # fmt: skip
+    """The building of a result: by its step-1 instance, else the footprint holding it."""
+    import shapely
+
+    for b, _, inst in buildings:
+        if instance is not None and inst == instance:
+            return b
+    if len(buildings) > 1 and len(objects):
+        xy = np.c_[objects.get("x", objects.get("centre_x", 0)),
+                   objects.get("y", objects.get("centre_y", 0))]  # fmt: skip
+        centre = shapely.Point(np.nanmean(xy, axis=0))
+        for b, fp, _ in buildings:
+            if fp is not None and fp.contains(centre):
+                return b
+    return buildings[0][0]
 
 
 def export_ifc(result_dir: str | Path, out: str | Path, *, step1_dir: str | Path | None = None,
@@ -492,35 +511,64 @@ def export_ifc(result_dir: str | Path, out: str | Path, *, step1_dir: str | Path
     -------
     IfcReport
     """
-    import shapely
+    return export_ifc_folders([(result_dir, None)], out, step1_dir=step1_dir,
+                              name=name or f"pyheracles: {Path(result_dir).name}")  # fmt: skip
+
+
+def export_ifc_folders(
+    parts: list[tuple[str | Path, int | None]],
+    out: str | Path,
+    *,
+    step1_dir: str | Path | None = None,
+    name: str = "pyheracles",
+) -> IfcReport:
+    """One IFC 4 model of several step-2 output folders (a pipeline run).
+
+    Parameters
+    ----------
+    parts
+        (result folder, step-1 instance or None) pairs; an instance puts the folder's
+        elements in that IfcBuilding, None in the building whose footprint holds them.
+    out
+        IFC file to write (atomically).
+    step1_dir
+        ``heracles complex`` folder with ``objects.gpkg`` (one IfcBuilding per
+        object), or None for one building.
+    name
+        Name of the IfcProject.
+
+    Notes
+    -----
+    The model's origin (IfcMapConversion) is the first folder's cloud offset; the
+    other folders' clouds are moved into it exactly (whole-metre offsets).
+    """
+    from dataclasses import replace
 
     from pyheracles.io.atomic import atomic_path
 
-    folder = Path(result_dir)
-    step, objects, cloud = read_result_folder(folder)
+    if not parts:
+        raise InputError("no result folders to export to IFC")
+    loaded = [(Path(f), *read_result_folder(f), inst) for f, inst in parts]
+    origin = np.asarray(loaded[0][3].offset, dtype=np.float64)
     rep = IfcReport(Path(out))
-    w = _Writer(name or f"pyheracles {step}: {folder.name}")
+    w = _Writer(name)
     site = w.run("root.create_entity", ifc_class="IfcSite", name="site")
     w.run("aggregate.assign_object", products=[site], relating_object=w.project)
-    _georeference(w, cloud.crs, np.asarray(cloud.offset, dtype=np.float64), rep.notes)
+    _georeference(w, loaded[0][3].crs, origin, rep.notes)
     buildings = _buildings(w, site, step1_dir, rep)
-    container = buildings[0][0]
-    if len(buildings) > 1 and len(objects):
-        xy = np.c_[objects.get("x", objects.get("centre_x", 0)),
-                   objects.get("y", objects.get("centre_y", 0))]  # fmt: skip
-        centre = shapely.Point(np.nanmean(xy, axis=0))
-        for b, fp in buildings:
-            if fp is not None and fp.contains(centre):
-                container = b
-                break
-    if step == "supports":
-        _supports(w, objects, cloud, container, rep)
-    elif step == "beams":
-        _beams(w, objects, cloud, container, rep)
-    else:
-        _walls(w, folder, cloud, container, rep)
-    if not rep.elements:
-        rep.notes.append(f"no elements in {folder}: the model holds the site and building only")
+    for folder, step, objects, cloud, inst in loaded:
+        if not np.array_equal(cloud.offset, origin):
+            cloud = replace(cloud, xyz=cloud.xyz + (cloud.offset - origin), offset=origin)
+        container = _container(buildings, objects, inst)
+        before = sum(rep.elements.values())
+        if step == "supports":
+            _supports(w, objects, cloud, container, rep)
+        elif step == "beams":
+            _beams(w, objects, cloud, container, rep)
+        else:
+            _walls(w, folder, cloud, container, rep)
+        if sum(rep.elements.values()) == before:
+            rep.notes.append(f"no elements in {folder}")
     with atomic_path(Path(out)) as tmp:
         w.f.write(str(tmp))
     return rep

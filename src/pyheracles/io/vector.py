@@ -7,6 +7,7 @@ when asked) -- the checks geopandas' ``clip`` does first.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -205,7 +206,10 @@ def write_gpkg(gdf: gpd.GeoDataFrame, path: str | Path, layer: str) -> Path:
         if col != table.geometry.name and table[col].dtype == object:
             table[col] = table[col].astype("string")
     p = Path(path)
-    with atomic_path(p) as tmp:
+    with atomic_path(p) as tmp, warnings.catch_warnings():
+        # a layer without CRS (a scan's local frame) is written with GeoPackage's
+        # undefined Cartesian SRS on purpose; the caller says so in run.json
+        warnings.filterwarnings("ignore", message="'crs' was not provided", category=UserWarning)
         table.to_file(
             tmp, driver="GPKG", layer=layer, engine="pyogrio",
             layer_options={"FID": "ogc_fid"}, dataset_options={"VERSION": GPKG_VERSION},
