@@ -140,6 +140,25 @@ def test_params_checked() -> None:
         RoofParams(lod12_percentile=0).validate()
 
 
+@pytest.mark.parametrize("kind", ["step", "gable"])
+def test_planes_with_a_bare_border_still_get_their_line(kind: str, rng) -> None:
+    """No points within 1.2 m of the border (AHN3 building 131: sparse points, a bare
+    ridge): no border pair is found, both planes fell in one cell and one was modelled
+    metres off.  The cell holding two planes now gets the line between them."""
+    xyz, cls, fp = _scene(kind, rng)
+    border = np.abs(xyz[:, 0] - 4.0) if kind == "step" else np.abs(xyz[:, 1] - 3.0)
+    keep = (cls != 6) | (border > 1.2)
+    xyz, cls = xyz[keep], cls[keep]
+    r = model_roofs(xyz, fp, offset=OFFSET, classification=cls)
+    row = r.objects.iloc[0]
+    assert row["n_planes"] == 2 and row["lod22"]
+    assert row["lod22_rms_m"] < 0.06, row["lod22_rms_m"]
+    m = r.models[1]
+    assert validate_solid(m.lod22.vertices, m.lod22.faces) == []
+    vol = signed_volume(m.lod22.vertices, m.lod22.faces)
+    assert vol == pytest.approx(TRUE_VOLUME[kind], rel=0.05)
+
+
 @pytest.mark.slow
 def test_ahn3_tile(shared_data) -> None:
     from pyheracles.io import read_cloud
@@ -153,7 +172,7 @@ def test_ahn3_tile(shared_data) -> None:
     )
     o = r.objects
     assert len(o) > 100 and o["lod22"].mean() > 0.9
-    assert o["lod22_rms_m"].median() < 0.2
+    assert o["lod22_rms_m"].median() < 0.15  # issue 18 target (0.162 before cells were split)
     for m in r.models.values():
         assert validate_solid(m.lod12.vertices, m.lod12.faces) == []
         if m.lod22 is not None:

@@ -224,6 +224,53 @@ def _label_cells(
     return labels
 
 
+def _missing_lines(
+    cells: list[Any],
+    labels: list[int],
+    xy: NDArray[np.float64],
+    plane: NDArray[np.int64],
+    abc: NDArray[np.float64],
+    adjacency_m: float,
+    step_m: float,
+    extent_m: float,
+    *,
+    min_share: float = 0.15,
+    min_points: int = 8,
+) -> list[Any]:
+    """Lines between the planes that share a cell (no line was found between them).
+
+    A border is found only where points of two planes lie within ``adjacency_m``;
+    ridges that region growing left bare, or sparse data, leave two planes in one
+    cell, and one of them is then modelled at the other's height (metres off on
+    AHN3).  For each cell where another plane holds at least ``min_share`` of the
+    points (and ``min_points``), the line between the two planes' points of that
+    cell is added: their intersection, or a step line fitted to the midpoints of
+    the nearest cross pairs (see :func:`roof_lines`), with the adjacency widened to
+    the gap between the two groups.
+    """
+    from scipy.spatial import cKDTree
+
+    out: list[Any] = []
+    for cell, lab in zip(cells, labels, strict=True):
+        inside = shapely.contains_xy(cell, xy[:, 0], xy[:, 1])
+        if inside.sum() < 2 * min_points:
+            continue
+        counts = np.bincount(plane[inside], minlength=len(abc))
+        total = counts.sum()
+        for q in np.flatnonzero((counts >= min_points) & (counts >= min_share * total)):
+            if q == lab or counts[lab] < min_points:
+                continue
+            a = xy[inside & (plane == lab)]
+            b = xy[inside & (plane == q)]
+            gap = float(cKDTree(a).query(b)[0].min())
+            sub = np.r_[np.zeros(len(a), np.int64), np.ones(len(b), np.int64)]
+            found = roof_lines(np.vstack([a, b]), sub, abc[[lab, q]],
+                               adjacency_m=max(adjacency_m, 1.5 * gap + 1e-3),
+                               step_m=step_m, extent_m=extent_m)  # fmt: skip
+            out.extend(found)
+    return out
+
+
 def _extend_planes(
     xyz: NDArray[np.float64],
     pts: NDArray[np.int64],
@@ -417,25 +464,46 @@ def model_roofs(
                 xyz[on, :2], local, abc, adjacency_m=adjacency, step_m=p.step_m, extent_m=extent
             )
             cells = partition_footprint(fps[f], lines)
-            if cells:
+            tries = []  # (cells, labels): refined first, the plain partition as fall-back
+            for _ in range(3):  # cells that still hold two planes get the line between them
+                if not cells:
+                    break
                 labels = _label_cells(
                     cells, xyz[on, :2], local, xyz[pts], abc, 2 * p.merge_distance_m
                 )
-                solid = extrude_partition(cells, labels, abc, zg[f])
-                from pyheracles.export.validate_solid import validate_solid
+                tries.insert(0, (cells, labels))
+                extra = _missing_lines(cells, labels, xyz[on, :2], local, abc,
+                                       adjacency, p.step_m, extent)  # fmt: skip
+                if not extra:
+                    break
+                lines = [*lines, *extra]
+                cells = partition_footprint(fps[f], lines)
+            else:
+                if cells:
+                    tries.insert(0, (cells, _label_cells(
+                        cells, xyz[on, :2], local, xyz[pts], abc, 2 * p.merge_distance_m)))
+            if len(tries) > 2:
+                tries = [tries[0], tries[-1]]
+            from pyheracles.export.validate_solid import validate_solid
 
+            for k, (cells_k, labels_k) in enumerate(tries):
+                solid = extrude_partition(cells_k, labels_k, abc, zg[f])
                 errors = tuple(validate_solid(solid.vertices, solid.faces))
                 roof_z = solid.vertices[:, 2][np.unique(np.concatenate([
                     np.concatenate(fc) for fc, s in zip(solid.faces, solid.semantics, strict=True)
                     if s == "RoofSurface"]))]  # fmt: skip
                 if np.any(roof_z < zg[f] + 0.01):
                     errors = (*errors, "a roof face lies below the ground")
-                if errors:
-                    warnings.append(f"{name}: LoD2.2 solid invalid, not written ({errors[0]})")
-                else:
+                if not errors:
                     lod22 = solid
                     n_faces = sum(s == "RoofSurface" for s in solid.semantics)
                     rms, _ = _roof_rms(solid, abc, xyz[on])
+                    if k:
+                        warnings.append(f"{name}: LoD2.2 without the lines added between "
+                                        "planes sharing a cell (that solid was invalid)")
+                    break
+            if tries and lod22 is None:
+                warnings.append(f"{name}: LoD2.2 solid invalid, not written ({errors[0]})")
         elif lod22:
             warnings.append(f"{name}: no roof plane found, LoD1.2 only")
         inst = f + 1
