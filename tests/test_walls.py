@@ -98,3 +98,67 @@ def test_no_vertical_planes_gives_a_note() -> None:
 def test_bad_parameters_are_refused() -> None:
     with pytest.raises(ValueError, match="distance_m"):
         WallParams(distance_m=-1)
+
+
+def test_lights_of_one_window_are_one_opening() -> None:
+    """Three lights with 0.18 m mullions (church family) are one 1.90 m window; a window
+    1.2 m away and a door stay apart; lights at different heights do not merge."""
+    from pyheracles.walls import Opening, merge_lights
+
+    def box(kind, u0, u1, z0, z1):
+        return Opening(kind, u0, u1, z0, z1, np.array([[u0, z0], [u1, z0], [u1, z1], [u0, z1]]))
+
+    lights = [box("window", 1.0 + k * 0.64, 1.46 + k * 0.64, 2.0, 4.5) for k in range(3)]
+    other = box("window", 4.10, 4.90, 2.0, 4.5)
+    door = box("door", 6.0, 7.2, 0.0, 2.4)
+    high = box("window", 8.2, 8.6, 5.5, 6.0)  # a clerestory light beside...
+    low = box("window", 8.8, 9.2, 2.0, 3.0)  # ...and a low one: no common height
+    out = merge_lights([*lights, other, door, high, low], 0.3)
+    assert len(out) == 5
+    w = out[0]
+    assert w.n_lights == 3 and abs(w.width_m - 1.74) < 1e-9 and abs(w.height_m - 2.5) < 1e-9
+    import shapely
+
+    assert abs(shapely.Polygon(w.polygon).area - 1.74 * 2.5) < 1e-6  # mullions included
+    assert [o.n_lights for o in out[1:]] == [1, 1, 1, 1]
+    assert merge_lights([*lights], 0.1) == sorted(lights, key=lambda o: o.u_min)  # 0.18 > 0.1
+
+
+def test_pointed_window_keeps_its_width() -> None:
+    """A pointed window 1.6 m wide (church family seed 0): its sides were refined in the
+    head, where the arch narrows, and it came out 1.0-1.5 m wide; the jambs now set it."""
+    s = Scene()
+    u0, sill, w, spring, rise = 3.0, 0.6, 1.6, 1.6, 0.9
+    r = (w**2 / 4 + rise**2) / (2 * rise)  # two arcs meeting at the apex
+    t = np.linspace(0, 1, 24)
+    left_c, right_c = u0 + w - r, u0 + r
+    ang_r = np.arcsin(np.clip(rise / r, 0, 1))
+    right_arc = [(left_c + r * np.cos(a), sill + spring + r * np.sin(a)) for a in t * ang_r]
+    left_arc = [(right_c - r * np.cos(a), sill + spring + r * np.sin(a)) for a in t * ang_r]
+    ring = [(u0, sill), (u0 + w, sill), *right_arc, *left_arc[::-1]]
+    hole = shapely.Polygon(ring).buffer(0)
+    _wall_h(s, (0, 0), (L, 0), 1, [list(hole.exterior.coords)[:-1]])
+    stations = [
+        TLSStation((4.0, 4.0, 1.6), step_deg=0.2, **QUIET),
+        TLSStation((3.8, -4.0, 1.6), step_deg=0.2, azimuth_deg=(20, 160), **QUIET),
+    ]
+    s.add_quad([[0, 4.5, 0], [L, 4.5, 0], [L, 4.5, 5], [0, 4.5, 5]], instance=9,
+               class_name="wall", part="face")  # something seen through the window
+    res = scan(s, stations, rng=1)
+    walls = segment_walls(res.xyz)
+    south = min(walls.walls, key=lambda x: abs(x.normal[0]) + abs(x.d * x.normal[1]))
+    win = [o for o in south.openings if o.kind == "window"]
+    assert len(win) == 1
+    assert win[0].width_m == pytest.approx(w, abs=0.05)
+    # the apex of a pointed head is one point of the grid: its height is 0.1 m short
+    assert win[0].height_m == pytest.approx(spring + rise, abs=0.12)
+
+
+def _wall_h(s: Scene, p0, p1, inst: int, holes=(), height: float = 4.0) -> None:
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    length = float(np.linalg.norm(p1 - p0))
+    u = (p1 - p0) / length
+    frame = np.array([[u[0], u[1], 0.0], [0.0, 0.0, 1.0], [-u[1], u[0], 0.0]])
+    poly = shapely.Polygon([(0, 0), (length, 0), (length, height), (0, height)], holes)
+    s.add_prism(poly, [p0[0], p0[1], 0.0], frame, T, instance=inst, class_name="wall",
+                part="face")  # fmt: skip

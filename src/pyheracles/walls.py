@@ -62,6 +62,7 @@ __all__ = [
     "WallParams",
     "WallResult",
     "intersect_planes",
+    "merge_lights",
     "segment_walls",
 ]
 
@@ -97,6 +98,11 @@ class WallParams:
         Grid of the outline on the wall plane (0.05 m).
     min_opening_m, min_opening_area_m2
         Smallest opening: 0.25 m wide and high, 0.1 m2.
+    max_mullion_m
+        Lights of one window side by side (or one above the other) separated by
+        mullions or transoms up to this width are one opening (the wall's void that
+        a window with its tracery fills in a BIM model); 0 (the default) keeps each
+        light an opening of its own, as the stone between them is wall.
     snap_m
         Largest move of a wall end to a plane intersection (1.0 m).
     assumed_thickness_m
@@ -117,6 +123,7 @@ class WallParams:
     cell_m: float = 0.05
     min_opening_m: float = 0.25
     min_opening_area_m2: float = 0.1
+    max_mullion_m: float = 0.0
     snap_m: float = 1.0
     assumed_thickness_m: float = 0.3
 
@@ -138,6 +145,8 @@ class WallParams:
             raise ValueError("min_thickness_m must be >= 0 and below max_thickness_m")
         if self.snap_m < 0:
             raise ValueError(f"snap_m must be >= 0, got {self.snap_m!r}")
+        if not (math.isfinite(self.max_mullion_m) and self.max_mullion_m >= 0):
+            raise ValueError(f"max_mullion_m must be >= 0, got {self.max_mullion_m!r}")
 
 
 @dataclass(frozen=True)
@@ -156,7 +165,8 @@ class Opening:
     """An opening of a wall, in the wall's ``(u, z)`` plane coordinates (metres).
 
     ``kind`` is ``"door"`` (reaches the wall's foot) or ``"window"``; ``polygon`` is
-    its outline ``(K, 2)``; ``width_m``/``height_m`` its bounding box.
+    its outline ``(K, 2)``; ``width_m``/``height_m`` its bounding box; ``n_lights``
+    the lights it was merged from (see :func:`merge_lights`).
     """
 
     kind: str
@@ -165,6 +175,7 @@ class Opening:
     z_min: float
     z_max: float
     polygon: Array
+    n_lights: int = 1
 
     @property
     def width_m(self) -> float:
@@ -287,6 +298,7 @@ class WallResult:
                 "openings": [{"kind": o.kind, "u_min": o.u_min, "u_max": o.u_max,
                               "z_min": o.z_min + off[2], "z_max": o.z_max + off[2],
                               "width_m": o.width_m, "height_m": o.height_m,
+                              "n_lights": o.n_lights,
                               "polygon_uz": (o.polygon + [0.0, off[2]]).tolist()}
                              for o in w.openings],
                 "joined": list(w.joined),
@@ -596,10 +608,18 @@ def _outline(w_uz: Array, depth_all: Array, uz_all: Array, near: NDArray[np.bool
                 continue  # a shadow: what is seen through it stands in front of the wall
             u0, u1 = lo[0] + sl[0].start * c, lo[0] + sl[0].stop * c
             z0, z1 = lo[1] + sl[1].start * c, lo[1] + sl[1].stop * c
-            u0, u1, z0, z1 = _refine_edges(w_uz, u0, u1, z0, z1, c, at_foot)
+            # the jambs: rows where the hole is (nearly) at its full width, below any
+            # round or pointed head (refining the sides in the head narrowed such windows)
+            # (doors keep their upper part: shadows merged at the foot widen them)
+            widths = region.sum(axis=0)
+            full = np.flatnonzero(widths >= widths.max() - 1)
+            jambs = None if at_foot else (lo[1] + (sl[1].start + full.min()) * c,
+                                          lo[1] + (sl[1].start + full.max() + 1) * c)
+            u0, u1, z0, z1 = _refine_edges(w_uz, u0, u1, z0, z1, c, at_foot, jambs)
             poly = _mask_polygon(region, lo + np.array([sl[0].start, sl[1].start]) * c, c)
             openings.append(Opening("door" if at_foot else "window", float(u0), float(u1),
                                     float(z0), float(z1), poly))  # fmt: skip
+    openings = merge_lights(openings, p.max_mullion_m)
     a, b = int(cols.min()), int(cols.max()) + 1
     us = lo[0] + np.arange(a, b + 1) * c
     tz = lo[1] + (top[np.r_[a:b, b - 1]] + 1) * c
@@ -609,21 +629,108 @@ def _outline(w_uz: Array, depth_all: Array, uz_all: Array, near: NDArray[np.bool
     return outline, openings, (float(us[0]), float(us[-1])), (float(bz.min()), float(tz.max()))
 
 
+def merge_lights(openings: list[Opening], max_mullion_m: float,
+                 min_overlap: float = 0.6) -> list[Opening]:  # fmt: skip
+    """Openings separated by a mullion or transom no wider than ``max_mullion_m``, as one.
+
+    Two windows merge when the gap between their boxes along one axis is at most
+    ``max_mullion_m`` and they overlap along the other by ``min_overlap`` of the
+    smaller one (lights of one window share their sill and springing).  The merged
+    outline is the union of the lights closed over the gap (the mullions belong to
+    the window).  Doors are left alone.
+    """
+    import shapely
+
+    wins = [o for o in openings if o.kind == "window"]
+    rest = [o for o in openings if o.kind != "window"]
+    if max_mullion_m <= 0 or len(wins) < 2:
+        return openings
+    parent = list(range(len(wins)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def overlap(a0: float, a1: float, b0: float, b1: float) -> float:
+        return max(0.0, min(a1, b1) - max(a0, b0)) / max(min(a1 - a0, b1 - b0), 1e-9)
+
+    for i, a in enumerate(wins):
+        for j in range(i + 1, len(wins)):
+            b = wins[j]
+            gap_u = max(a.u_min, b.u_min) - min(a.u_max, b.u_max)
+            gap_z = max(a.z_min, b.z_min) - min(a.z_max, b.z_max)
+            side = 0 <= gap_u <= max_mullion_m and overlap(a.z_min, a.z_max, b.z_min,
+                                                            b.z_max) >= min_overlap
+            stacked = 0 <= gap_z <= max_mullion_m and overlap(a.u_min, a.u_max, b.u_min,
+                                                               b.u_max) >= min_overlap
+            if side or stacked:
+                parent[root(j)] = root(i)
+    groups: dict[int, list[Opening]] = {}
+    for i, o in enumerate(wins):
+        groups.setdefault(root(i), []).append(o)
+    merged = []
+    for g in groups.values():
+        if len(g) == 1:
+            merged.append(g[0])
+            continue
+        half = max_mullion_m / 2 + 1e-3
+        union = shapely.union_all([shapely.Polygon(o.polygon).buffer(0) for o in g])
+        closed = union.buffer(half, join_style="mitre").buffer(-half, join_style="mitre")
+        if closed.geom_type != "Polygon":  # not bridged: the boxes' hull
+            closed = shapely.convex_hull(union)
+        ring = np.asarray(closed.exterior.coords)[:-1]
+        merged.append(Opening("window", min(o.u_min for o in g), max(o.u_max for o in g),
+                              min(o.z_min for o in g), max(o.z_max for o in g), ring,
+                              sum(o.n_lights for o in g)))  # fmt: skip
+    return sorted([*merged, *rest], key=lambda o: (o.u_min, o.z_min))
+
+
 def _refine_edges(
-    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, at_foot: bool
+    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, at_foot: bool,
+    jambs: tuple[float, float] | None = None,
 ) -> tuple[float, float, float, float]:
     """Edges of an opening from the face points around it (finer than the grid): the
-    nearest face points left and right of its centre in its upper part, and above and
-    below its centre line (shadows merged at a door's foot do not widen it)."""
-    w, h = u1 - u0, z1 - z0
-    uc, zc = 0.5 * (u0 + u1), 0.5 * (z0 + z1)
+    nearest face points left and right of its centre along its jambs (``jambs``: the
+    heights where it has its full width; default its upper part), and above and below
+    its centre line (shadows merged at a door's foot do not widen it)."""
+    h = z1 - z0
+    uc = 0.5 * (u0 + u1)
     lo_z = z1 - 0.45 * h if at_foot else z0 + 0.25 * h
-    band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < z1 - 0.1 * h)
+    hi_z = z1 - 0.1 * h
+    if jambs is not None:
+        lo_z = max(lo_z, jambs[0]) if at_foot else max(z0 + 0.05 * h, jambs[0])
+        hi_z = min(hi_z, jambs[1])
+        if hi_z - lo_z < 2 * c:  # too short a band: the grid edges stand
+            return u0, u1, *_refine_z(uz, u0, u1, z0, z1, c, at_foot)
+    band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < hi_z)
     left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c), 0]
     right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c), 0]
     if len(left) >= 5 and len(right) >= 5:
-        u0, u1 = float(np.percentile(left, 99.5)), float(np.percentile(right, 0.5))
-        uc, w = 0.5 * (u0 + u1), u1 - u0
+        if jambs is None:
+            u0, u1 = float(np.percentile(left, 99.5)), float(np.percentile(right, 0.5))
+        else:  # per row of the band the innermost point, then the median over the rows
+            u0 = _row_median(uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c)], c, max)
+            u1 = _row_median(uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c)], c, min)
+    return u0, u1, *_refine_z(uz, u0, u1, z0, z1, c, at_foot)
+
+
+def _row_median(uz: Array, c: float, pick: Any) -> float:
+    """Median over rows of height ``c`` of the innermost ``u`` of each row (``pick``)."""
+    rows = np.floor(uz[:, 1] / c).astype(np.int64)
+    order = np.argsort(rows, kind="stable")
+    r, u = rows[order], uz[order, 0]
+    starts = np.flatnonzero(np.r_[True, np.diff(r) != 0])
+    reduce = np.maximum if pick is max else np.minimum
+    return float(np.median(reduce.reduceat(u, starts)))
+
+
+def _refine_z(
+    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, at_foot: bool
+) -> tuple[float, float]:
+    """Head and sill of an opening from the face points above and below its centre."""
+    uc, zc, w = 0.5 * (u0 + u1), 0.5 * (z0 + z1), u1 - u0
     band_u = np.abs(uz[:, 0] - uc) < max(0.05 * w, c)
     above = uz[band_u & (uz[:, 1] > zc) & (uz[:, 1] < z1 + 2 * c), 1]
     below = uz[band_u & (uz[:, 1] < zc) & (uz[:, 1] > z0 - 2 * c), 1]
@@ -631,7 +738,7 @@ def _refine_edges(
         z1 = float(np.percentile(above, 0.5))
     if not at_foot and len(below) >= 3:
         z0 = float(np.percentile(below, 99.5))
-    return u0, u1, z0, z1
+    return z0, z1
 
 
 def _simplify(ring: Array, tol: float) -> Array:

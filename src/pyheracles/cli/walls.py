@@ -54,7 +54,8 @@ def write_walls_layers(result: Any, cloud: Any, folder: Path) -> list[Path]:
         for k, o in enumerate(w.openings, start=1):
             ogeoms.append(shapely.Polygon(w.to_3d(o.polygon) + off))
             orows.append({"wall": w.instance, "opening": k, "kind": o.kind,
-                          "width_m": o.width_m, "height_m": o.height_m})  # fmt: skip
+                          "width_m": o.width_m, "height_m": o.height_m,
+                          "n_lights": o.n_lights})  # fmt: skip
     crs = cloud.crs
     write_gpkg(gpd.GeoDataFrame(rows, geometry=geoms, crs=crs), folder / "walls.gpkg", "walls")
     if orows:
