@@ -4,16 +4,20 @@ Prints one JSON line per measurement:
 
 * every DBAT reference in ../shared/data/dbat: sigma0 ours vs DBAT, max |param
   diff| / DBAT std, max std ratio deviation, correlation pairs matched;
-* romabundledemo: adjustment + full posterior covariance time (target <= 20 s);
-* a generated 500-image / 200 k-point facade network (target <= 180 s), with a
-  smaller network as peer for the scaling ratio.
+* romabundledemo: adjustment + full posterior covariance time (issue 16 target
+  <= 5 s; DBAT 0.9.2 reports 7.28 s bundle + 1.85 s covariance), with the
+  stage split and the machine load (the machine is shared);
+* generated facade networks (``pyheracles.synthetic.network``): a 100-image /
+  40 k-point one per seed of the sweep, and the 500-image / 200 k-point one
+  (target <= 90 s), with the scaling ratio.
 
-Usage: ``python benchmarks/bench_bundle.py [--skip-large]``
+Usage: ``python benchmarks/bench_bundle.py [--skip-large] [--sweep N --first-seed S]``
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -137,24 +141,27 @@ def bench_roma_speed() -> None:
         time_s=best,
         all_runs_s=times,
         points_per_s=181122 / best,
-        target_s=20.0,
-        reached=best <= 20.0,
+        target_s=5.0,
+        reached=best <= 5.0,
         stages=res.timings,
+        load_avg_1min=os.getloadavg()[0],
         dbat_reported_s=7.28 + 0.69 + 0.01 + 0.03 + 1.12,
         peak_rss_gb=peak_rss_gb(),
     )
 
 
-def bench_network(n_images: int, n_points: int, target_s: float | None) -> float:
+def bench_network(n_images: int, n_points: int, target_s: float | None, seed: int = 0) -> float:
     from pyheracles.synthetic.network import NetworkParameters, make_network
 
     with timer() as tg:
-        project, truth = make_network(NetworkParameters(n_images=n_images, n_points=n_points), 0)
+        params = NetworkParameters(n_images=n_images, n_points=n_points)
+        project, truth = make_network(params, seed)
     with timer() as t:
         res = bundle_adjust(project)
     err = np.abs(res.io[0] - truth["io"])[res.network.io_free[0]]
     emit(
         dataset=f"synthetic-{n_images}img-{n_points}pts",
+        seed=seed,
         metric="adjust_plus_covariance_s",
         value=t.s,
         time_s=t.s,
@@ -168,6 +175,7 @@ def bench_network(n_images: int, n_points: int, target_s: float | None) -> float
         target_s=target_s,
         reached=None if target_s is None else t.s <= target_s,
         stages=res.timings,
+        load_avg_1min=os.getloadavg()[0],
         peak_rss_gb=peak_rss_gb(),
     )
     return t.s
@@ -176,12 +184,17 @@ def bench_network(n_images: int, n_points: int, target_s: float | None) -> float
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--skip-large", action="store_true", help="skip the 500-image network")
+    ap.add_argument("--sweep", type=int, default=1, help="seeds of the 100-image network")
+    ap.add_argument("--first-seed", type=int, default=0, help="first seed of the sweep")
     args = ap.parse_args()
     bench_references()
     bench_roma_speed()
-    small = bench_network(100, 40000, None)
+    small = min(
+        bench_network(100, 40000, None, seed)
+        for seed in range(args.first_seed, args.first_seed + args.sweep)
+    )
     if not args.skip_large:
-        big = bench_network(500, 200000, 180.0)
+        big = bench_network(500, 200000, 90.0, args.first_seed)
         emit(dataset="synthetic", metric="scaling_ratio_500_vs_100_images", value=big / small)
 
 

@@ -78,5 +78,5 @@ def test_colmap_synthetic_model(tmp_path, rng):
 def test_colmap_bad_model(tmp_path):
     (tmp_path / "images.txt").write_text("1 1 0 0 0 0 0 0 7 a.jpg\n\n")
     (tmp_path / "cameras.txt").write_text("1 FISHEYE 10 10 1 2 3\n")
-    with pytest.raises(InputError, match="unsupported camera model FISHEYE"):
+    with pytest.raises(InputError, match="camera model FISHEYE is not supported"):
         read_project(tmp_path)

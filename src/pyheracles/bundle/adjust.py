@@ -28,6 +28,11 @@ from pyheracles.bundle.initial import (
     relative_block_orientation,
     spatial_resection,
 )
+from pyheracles.bundle.posterior import (
+    posterior_covariance,
+    prior_redundancy,
+    redundancy_numbers,
+)
 from pyheracles.bundle.project import BundleWarning, Project
 from pyheracles.bundle.schur import PointCameraSystem
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
@@ -134,6 +139,7 @@ class Network:
     op_prior_std: np.ndarray
     datum: str
     fixed_coordinate: tuple[int, int] | None = None  # (image, axis) for "depend"
+    xyz_init: np.ndarray | None = None  # (N,3) initial point coordinates (None: project.xyz)
 
     @property
     def n_free(self) -> int:
@@ -244,8 +250,15 @@ def _choose_datum(project: Project, params: BundleParameters) -> str:
     return "depend"
 
 
-def _initial_values(project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray) -> Project:
-    """Resect images without EO and intersect points without coordinates."""
+def _initial_values(
+    project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray
+) -> tuple[Project, np.ndarray]:
+    """Resect images without EO and intersect points without coordinates.
+
+    Returns the project with the initial exterior orientations and point
+    coordinates, except that check points keep their reference coordinates
+    (what they are checked against), and the initial coordinates of every point.
+    """
     cams = project.cameras
     model = cams[0].model
     io_all = np.array([c.io_vector() for c in cams])
@@ -311,7 +324,9 @@ def _initial_values(project: Project, uv_mm: np.ndarray, obs_cam: np.ndarray) ->
                 f"{project.point_ids[bad][:10].tolist()}",
                 path=project.source,
             )
-    return project.replace(eo=eo, xyz=xyz)
+    check = (project.point_role == "check") & np.all(np.isfinite(project.xyz), axis=1)
+    reference = np.where(check[:, None], project.xyz, xyz)
+    return project.replace(eo=eo, xyz=reference), xyz
 
 
 def prepare_network(project: Project, params: BundleParameters | None = None) -> Network:
@@ -333,7 +348,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
     if not np.all(np.isfinite(sqrt_w)) or np.any(project.obs_std_px <= 0):
         raise InputError("image observation standard deviations must be > 0", path=project.source)
     eo_observed = project.eo.copy()  # prior EO values, before resection replaces them
-    project = _initial_values(project, uv_mm, obs_cam)
+    project, xyz_init = _initial_values(project, uv_mm, obs_cam)
 
     io_free = project.estimate_io.copy()
     if model in (1, 2, FORWARD_MODEL):
@@ -400,6 +415,7 @@ def prepare_network(project: Project, params: BundleParameters | None = None) ->
         op_prior_std=op_prior_std,
         datum=datum,
         fixed_coordinate=fixed_coord,
+        xyz_init=xyz_init,
     )
 
 
@@ -587,7 +603,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     t0 = time.perf_counter()
     net = prepare_network(project, params)
     p = net.project
-    st = _State(np.array([c.io_vector() for c in p.cameras]), p.eo.copy(), p.xyz.copy())
+    xyz0 = net.xyz_init if net.xyz_init is not None else p.xyz
+    st = _State(np.array([c.io_vector() for c in p.cameras]), p.eo.copy(), xyz0.copy())
     diagnosis: dict = {"control_test_before": control_point_test(net, st.io, st.eo, 1.0)}
     _warn_gross(p, diagnosis["control_test_before"], "before")
     timings = {"setup": time.perf_counter() - t0}
@@ -723,9 +740,11 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     _warn_gross(p, diagnosis["control_test_after"], "after")
     if params.covariance:
         t2 = time.perf_counter()
-        _posterior(result, ne, fac, d)
-        result.redundancy_numbers = _redundancy_numbers(result, ne, jac)
-        result.prior_redundancy_numbers = _prior_redundancy(result)
+        posterior_covariance(result, ne, fac, d)
+        t3 = time.perf_counter()
+        result.redundancy_numbers = redundancy_numbers(result, ne, jac)
+        result.prior_redundancy_numbers = prior_redundancy(result)
+        timings["redundancy"] = time.perf_counter() - t3
         timings["covariance"] = time.perf_counter() - t2
     timings["total"] = time.perf_counter() - t0
     return result
@@ -776,80 +795,3 @@ def _failure_diagnosis(net: Network, st: _State, r: np.ndarray, norms: list, n_i
     except (np.linalg.LinAlgError, ValueError):  # pragma: no cover - diagnosis only
         out["control_test_after"] = {"points": [], "gross": []}
     return out
-
-
-def _posterior(res: BundleResult, ne: PointCameraSystem, fac, d) -> None:
-    """Posterior covariance: camera block and each point's 3x3 block, times sigma0^2."""
-    net = res.network
-    s02 = res.sigma0**2
-    nc = net.n_cam_cols
-    if nc:
-        inv_scaled = scipy.linalg.cho_solve(fac, np.eye(nc), check_finite=False)
-        cov_cam = inv_scaled / d[:, None] / d[None, :]
-    else:
-        cov_cam = np.zeros((0, 0))
-    cov_p = ne.point_covariances(cov_cam)
-    fixed = ~net.op_free
-    cov_p[fixed.nonzero()[0], fixed.nonzero()[1], :] = 0.0
-    cov_p[fixed.nonzero()[0], :, fixed.nonzero()[1]] = 0.0
-    res.cov_cam = s02 * cov_cam
-    res.cov_xyz = s02 * cov_p
-    var_cam = np.diag(res.cov_cam)
-    io_std = np.zeros_like(res.io)
-    io_std[net.io_free] = np.sqrt(np.clip(var_cam[net.io_col[net.io_free]], 0, None))
-    eo_std = np.zeros_like(res.eo)
-    eo_std[net.eo_free] = np.sqrt(np.clip(var_cam[net.eo_col[net.eo_free]], 0, None))
-    res.io_std = io_std
-    res.eo_std = eo_std
-    res.xyz_std = np.sqrt(np.clip(np.einsum("nii->ni", res.cov_xyz), 0, None))
-
-
-def _redundancy_numbers(res: BundleResult, ne: PointCameraSystem, jac, chunk=20000):
-    """Redundancy number of every image coordinate: 1 - diag(J Q J^T) (weighted).
-
-    ``Q = N^-1`` is assembled per observation from the point block, the camera
-    block and their cross covariance ``-A^-1 B S^-1``; the sum over all
-    observations (and priors) equals the redundancy.
-    """
-    net = res.network
-    p = net.project
-    d_xyz, d_eo, d_io = jac
-    w = net.sqrt_w[:, :, None]
-    s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
-    q_cam = res.cov_cam / s02
-    union = np.flatnonzero(net.io_free.any(axis=0))
-    cols = np.concatenate([net.io_col[net.obs_cam][:, union], net.eo_col[p.obs_image]], axis=1)
-    valid = cols >= 0
-    jc = np.concatenate([d_io[:, :, union], d_eo], axis=2) * w * valid[:, None, :]
-    jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
-    q_pc_all = ne.cross_covariances(q_cam, cols)  # (m,3,L)
-    qz = np.zeros((q_cam.shape[0] + 1,) * 2)
-    qz[:-1, :-1] = q_cam
-    cz = np.where(valid, cols, q_cam.shape[0])
-    m = jp.shape[0]
-    out = np.empty((m, 2))
-    for start in range(0, m, chunk):
-        sl = slice(start, min(m, start + chunk))
-        q_pp = res.cov_xyz[p.obs_point[sl]] / s02
-        q_cc = qz[cz[sl][:, :, None], cz[sl][:, None, :]]
-        a, b = jp[sl], jc[sl]
-        h = (
-            np.einsum("kri,kij,krj->kr", a, q_pp, a)
-            + np.einsum("kri,kij,krj->kr", b, q_cc, b)
-            + 2 * np.einsum("kri,kij,krj->kr", a, q_pc_all[sl], b)
-        )
-        out[sl] = 1.0 - h
-    return out
-
-
-def _prior_redundancy(res: BundleResult) -> np.ndarray:
-    """Redundancy numbers of the prior (EO, then object point) observations."""
-    net = res.network
-    s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
-    eo_m = np.isfinite(net.eo_prior_std)
-    op_m = np.isfinite(net.op_prior_std)
-    q_eo = np.diag(res.cov_cam)[net.eo_col[eo_m]] / s02
-    q_op = np.einsum("nii->ni", res.cov_xyz)[op_m] / s02
-    return np.concatenate(
-        [1.0 - q_eo / net.eo_prior_std[eo_m] ** 2, 1.0 - q_op / net.op_prior_std[op_m] ** 2]
-    )

@@ -8,10 +8,15 @@ units: camera unit mm, object unit m, angles in degrees).
 from __future__ import annotations
 
 import datetime as _dt
+import platform
+import socket
+import uuid
 from pathlib import Path
 
 import numpy as np
 
+from pyheracles import __version__
+from pyheracles.bundle import quality as qa
 from pyheracles.bundle.camera import IO_NAMES
 from pyheracles.bundle.diagnostics import (
     control_point_residuals,
@@ -99,7 +104,8 @@ def report_dict(result, *, threshold: float = 0.95, top: int = 20) -> dict:
         })  # fmt: skip
     tie = net.op_free.any(axis=1) & (p.point_role == "tie")
     # DBAT's "total standard deviation": sqrt(sX^2 + sY^2 + sZ^2).
-    total_std = np.sqrt(np.sum(result.xyz_std**2, axis=1))
+    xyz_std = result.xyz_std if result.xyz_std is not None else np.full_like(result.xyz, np.nan)
+    total_std = np.sqrt(np.sum(xyz_std**2, axis=1))
     flagged = snoop["flagged"][:top]
     return {
         "project": p.name,
@@ -147,7 +153,7 @@ def report_dict(result, *, threshold: float = 0.95, top: int = 20) -> dict:
             "angle_mean_deg": float(angles[tie].mean()) if tie.any() else None,
             "std_total_min": float(total_std[tie].min()) if tie.any() else None,
             "std_total_max": float(total_std[tie].max()) if tie.any() else None,
-            "std_max_xyz": result.xyz_std[tie].max(axis=0).tolist() if tie.any() else None,
+            "std_max_xyz": xyz_std[tie].max(axis=0).tolist() if tie.any() else None,
             # RMS of the residual vector lengths (DBAT's "overall point RMS").
             "residual_rms_px": float(np.sqrt(np.mean(np.sum(result.residuals_px**2, axis=1)))),
             "residual_max_px": float(np.max(np.linalg.norm(result.residuals_px, axis=1))),
@@ -181,6 +187,24 @@ def report_dict(result, *, threshold: float = 0.95, top: int = 20) -> dict:
         },
         "rank_deficiency": result.rank_deficiency,
         "object_points": _object_points(result, rays),
+        "uuid": str(uuid.uuid4()),
+        "quality": _quality(result, angles),
+    }
+
+
+def _quality(result, angles: np.ndarray) -> dict:
+    """DBAT's quality figures (see :mod:`pyheracles.bundle.quality`)."""
+    has_cov = result.cov_cam is not None
+    return {
+        "significance": qa.distortion_significance(result) if has_cov else None,
+        "camera_geometry": qa.camera_geometry(result),
+        "coverage": qa.coverage(result),
+        "calibrated_region": qa.calibrated_region(result),
+        "rays": qa.ray_counts(result),
+        "residuals": qa.residual_extremes(result),
+        "precision": qa.point_precision(result),
+        "angles": qa.angle_summary(result, angles),
+        "reference": qa.reference_tables(result),
     }
 
 
@@ -213,22 +237,42 @@ def _fmt_val(v: float) -> str:
     return f"{v:g}" if abs(v) < 1e-3 and v != 0 else f"{v:.6g}"
 
 
-def report_text(result, data: dict | None = None) -> str:
-    """DBAT-style text report (section names and labels of DBAT's result file)."""
-    d = data or report_dict(result)
+def _model_line(model: int) -> str:
+    if model > 0:
+        return f"Backward (Photogrammetry) model {model}"
+    return f"Forward (Computer Vision) model {-model}"
+
+
+def _pct_range(v: list[float], union: float) -> str:
+    a = 100 * np.asarray(v, float)
+    if not len(a):
+        return "-"
+    return (f"{round(a.min()):d}%-{round(a.max()):d}% ({round(a.mean()):d}% average, "
+            f"{round(100 * union):d}% union)")  # fmt: skip
+
+
+def _label(lab: str, pid: int) -> str:
+    return f"{lab}, " if lab and lab != str(pid) else ""
+
+
+def _header_lines(d: dict, result, add) -> None:
     p = result.project
     net = result.network
-    L: list[str] = []
-    add = L.append
-    add("Damped Bundle Adjustment Toolbox result file (pyheracles re-implementation)")
     add("   Project")
     add(f"      Name             : {d['project']}")
+    add(f"      Computation UUID : {d['uuid']}")
     add(f"      Input file name  : {d['source']}")
+    ctl = d.get("control_file")
+    if ctl:
+        add(f"      Ctrl pt file     : {ctl['source']}")
     add("   Problems and suggestions:")
     add("      Project Problems:")
-    add("         Structural rank: ok.")
-    add("         Numerical rank: ok.")
+    rank_ok = not d["rank_deficiency"]
+    add(f"         Structural rank: {'ok' if rank_ok else 'deficient'}.")
+    add(f"         Numerical rank: {'ok' if rank_ok else 'deficient'}.")
     probs = []
+    if not d["converged"]:
+        probs.append(f"Bundle failed ({d['status']}).")
     if any(c["high_correlations"] for c in d["cameras"]):
         probs.append("One or more of the camera parameter has a high correlation (see below).")
     if d["correlations"]["eo"]:
@@ -237,6 +281,10 @@ def report_text(result, data: dict | None = None) -> str:
         )
     if d["correlations"]["op_pairs_above"]:
         probs.append("One or more of the object point coordinates has a high correlation.")
+    sig = d["quality"]["significance"] or []
+    if any(s["failed"] for s in sig):
+        probs.append("One or more estimated lens and/or affine distortion coefficients "
+                     "failed significance test (see below).")  # fmt: skip
     if d["data_snooping"]["n_flagged"]:
         sym = "tau" if d["data_snooping"]["test"] == "tau" else "w"
         probs.append(
@@ -256,6 +304,10 @@ def report_text(result, data: dict | None = None) -> str:
         add(f"         {s}")
     add("   Information from last bundle")
     add(f"      Last Bundle Run:        {d['created']}")
+    add(f"      pyheracles version:     {__version__}")
+    add(f"      Python version:         {platform.python_version()}")
+    add(f"      Host system:            {platform.system()} {platform.machine()}")
+    add(f"      Host name:              {socket.gethostname()}")
     add(f"      Status:                 {'OK' if d['converged'] else d['status']}")
     add(f"      Sigma0:                 {d['sigma0']:.6g}")
     add(f"      Sigma0 (pixels):        {d['sigma0_px']:.6g}")
@@ -264,13 +316,12 @@ def report_text(result, data: dict | None = None) -> str:
         f"      Number of params:       {d['n_parameters']} ({d['n_parameters_io']} IO, "
         f"{d['n_parameters_eo']} EO, {d['n_parameters_op']} OP)"
     )
+    n_eo = int(np.isfinite(net.eo_prior_std).sum())
     n_prior = d["n_observations"] - d["n_image_observations"]
     add(
         f"      Number of observations: {d['n_observations']} ({d['n_image_observations']} IP, "
-        f"0 IO, {int(np.isfinite(net.eo_prior_std).sum())} EO, "
-        f"{n_prior - int(np.isfinite(net.eo_prior_std).sum())} OP)"
+        f"0 IO, {n_eo} EO, {n_prior - n_eo} OP)"
     )
-    ctl = d.get("control_file")
     if ctl:
         add("      Control file:")
         add(f"         File:    {ctl['source']}")
@@ -281,70 +332,112 @@ def report_text(result, data: dict | None = None) -> str:
         )
         for line in ctl["echo"]:
             add(f"         {line}")
+    par = result.parameters
+    calib = bool(net.io_free.any())
     add("      Processing options:")
-    add(f"         Maximum # of iterations: {result.parameters.max_iterations}")
-    add(f"         Convergence tolerance:   {result.parameters.tolerance:g}")
+    add("         Orientation:             on")
+    add("         Global optimization:     on")
+    add(f"         Calibration:             {'on' if calib else 'off'}")
+    add("         Constraints:             off")
+    add(f"         Maximum # of iterations: {par.max_iterations}")
+    add(f"         Convergence tolerance:   {par.tolerance:g}")
     add("         Termination criteria:    relative")
-    add(f"         Damping:                 {_DAMPING_NAMES[result.parameters.damping]}")
+    add("         Singular test:           on")
+    add("         Chirality veto:          off")
+    add(f"         Damping:                 {_DAMPING_NAMES[par.damping]}")
     add(f"         Datum:                   {d['datum']}")
+    add(f"         Data snooping:           {d['data_snooping']['description']}")
     add("         Camera unit (cu):        mm")
     add("         Object space unit (ou):  m")
+    add(f"         Initial value comment:   {p.meta.get('initial', '')}".rstrip())
     add("      Total error:")
+    add("         Number of stages:     1")
     add(f"         Number of iterations: {d['iterations']}")
     add(f"         First error:          {d['residual_norm_history'][0]:.6g}")
     add(f"         Last error:           {d['residual_norm_history'][-1]:.6g}")
+    t = d["timings_s"]
     add("      Execution times (s):")
-    for k, v in d["timings_s"].items():
-        add(f"         {k + ':':<15}{v:.2f}")
+    for label, key in (("Bundle:", "adjust"), ("Post-cov prep:", "cov_prep"),
+                       ("Post-cov CIO:", "cov_io"), ("Post-cov CEO:", "cov_eo"),
+                       ("Post-cov COP:", "cov_op"), ("Redundancy numbers:", "redundancy"),
+                       ("Total:", "total")):  # fmt: skip
+        if key in t:
+            add(f"         {label:<15}{t[key]:.2f}")
+
+
+def _camera_lines(d: dict, result, add) -> None:
+    p = result.project
+    models = sorted({c.model for c in p.cameras})
     add("      Lens distortion models:")
-    add(f"         Backward (Photogrammetry) model {p.cameras[0].model}")
+    add(f"         {_model_line(models[0]) if len(models) == 1 else 'Mixed Forward/Backward'}")
     add("      Cameras:")
-    for cam in d["cameras"]:
-        est = cam["estimated"]
+    ests = {tuple(c["estimated"]) for c in d["cameras"]}
+    if len(ests) == 1:
+        est = next(iter(ests))
         add(f"         Calibration: {'yes (' + ' '.join(est) + ')' if est else 'no'}")
+    else:
+        add("         Calibration: yes (mixed parameters)")
+    qual = d["quality"]
+    for ci, cam in enumerate(d["cameras"]):
+        est = cam["estimated"]
+        sig = (qual["significance"] or [{}] * (ci + 1))[ci]
         add(f"         Camera{cam['id']} (simple)")
-        corr = {}
+        add("            Lens distortion model:")
+        add(f"               {_model_line(cam['model'])}")
+        corr: dict[str, list[str]] = {}
         for c in cam["high_correlations"]:
             a, b = c["pair"]
             corr.setdefault(a, []).append(f"{b}:{100 * c['r']:.1f}%")
             corr.setdefault(b, []).append(f"{a}:{100 * c['r']:.1f}%")
+        w, h = cam["image_size_px"]
+        pw, ph = cam["pixel_size_mm"]
         for name in _CAM_ORDER:
             label, unit = _CAM_LABELS[name]
             add(f"            {label}:")
             add(f"               Value:        {_fmt_val(cam['values'][name])} {unit}".rstrip())
             if name in est:
                 add(f"               Deviation:    {cam['std'][name]:.3g} {unit}".rstrip())
+            if name in sig.get("significance", {}):
+                add(f"               Significance: p={sig['significance'][name]:.2f}")
+            if name in sig.get("cumulative", {}):
+                add(f"               Cumulative significance:p={sig['cumulative'][name]:.2f}")
             if name in corr:
                 add(f"               Correlations over 95%: {', '.join(corr[name])}.")
             if name == "py":
-                w, h = cam["image_size_px"]
-                pw, ph = cam["pixel_size_mm"]
                 add("            Format width:")
                 add(f"               Value:        {w * pw:.6g} mm")
                 add("            Format height:")
                 add(f"               Value:        {h * ph:.6g} mm")
-        w, h = cam["image_size_px"]
-        add("            Image width:")
-        add(f"               Value:        {w} px")
-        add("            Image height:")
-        add(f"               Value:        {h} px")
-        add("            Pixel width:")
-        add(f"               Value:        {cam['pixel_size_mm'][0]:.6g} mm")
-        add("            Pixel height:")
-        add(f"               Value:        {cam['pixel_size_mm'][1]:.6g} mm")
+        for label, val, unit in (("Image width", w, "px"), ("Image height", h, "px"),
+                                 ("X resolution", 1 / pw, "px/mm"),
+                                 ("Y resolution", 1 / ph, "px/mm"),
+                                 ("Pixel width", pw, "mm"),
+                                 ("Pixel height", ph, "mm")):  # fmt: skip
+            add(f"            {label}:")
+            add(f"               Value:        {val:.6g} {unit}")
+        g = qual["camera_geometry"][ci]
+        aov = ", ".join(f"{a:.0f}" for a in g["angle_of_view_deg"])
+        add(f"         Rated angle of view (h,v,d): ({aov}) deg")
+        add(
+            f"         Largest distortion: {g['largest_distortion_mm']:.2g} mm "
+            f"({g['largest_distortion_px']:.1f} px, "
+            f"{g['largest_distortion_pct_half_diagonal']:.1f}% of half-diagonal); "
+            f"|dx|+|dy| (DBAT's figure): {g['largest_distortion_l1_mm']:.2g} mm "
+            f"({g['largest_distortion_l1_px']:.1f} px)"
+        )
+
+
+def _photo_lines(d: dict, add) -> None:
     add("      Precisions / Standard Deviations:")
     add("         Photograph Standard Deviations:")
+    names = {x[0]: x[1] for x in _EO_LABELS}
     for k, im in enumerate(d["images"], 1):
         add(f"            Photo {k}: {im['name']}")
-        corr = {}
+        corr: dict[str, list[str]] = {}
         for c in im["high_correlations"]:
             a, b = c["pair"]
-            corr.setdefault(a, []).append(
-                f"{dict((x[0], x[1]) for x in _EO_LABELS)[b]}:{100 * c['r']:.1f}%"
-            )
-            corr.setdefault(b, []).append(
-                f"{dict((x[0], x[1]) for x in _EO_LABELS)[a]}:{100 * c['r']:.1f}%"
-            )
+            corr.setdefault(a, []).append(f"{names[b]}:{100 * c['r']:.1f}%")
+            corr.setdefault(b, []).append(f"{names[a]}:{100 * c['r']:.1f}%")
         for key, label, j in _EO_LABELS:
             ang = j >= 3
             val = im[f"{key}_deg"] if ang else im[key]
@@ -356,70 +449,161 @@ def report_text(result, data: dict | None = None) -> str:
                 add(f"                  Deviation: {sd:.3g} {unit}")
             if key in corr:
                 add(f"                  Correlations over 95%: {', '.join(corr[key])}.")
+
+
+def _quality_lines(d: dict, result, add) -> None:
+    p = result.project
+    qual = d["quality"]
     add("   Quality")
     add("      Photographs")
     add(f"         Total number: {p.n_images}")
+    add(f"         Numbers used: {p.n_images}")
+    add("      Cameras")
+    add(f"         Total number: {len(p.cameras)} ({len(p.cameras)} simple, 0 mixed)")
+    for cam, cov in zip(d["cameras"], qual["coverage"], strict=True):
+        add(f"         Camera{cam['id']}:")
+        cal = "yes" if cam["estimated"] else "<not available>"
+        add(f"            Calibration:                   {cal}")
+        add(f"            Number of photos using camera: {len(cov['images'])}")
+        add("            Photo point coverage:")
+        add(f"               Rectangular: {_pct_range(cov['rect'], cov['union']['rect'])}")
+        add(f"               Convex hull: {_pct_range(cov['hull'], cov['union']['hull'])}")
+        add(f"               Radial:      {_pct_range(cov['radial'], cov['union']['radial'])}")
+    add("      Photo Coverage")
+    add("         Reference points outside calibrated region:")
+    for reg in qual["calibrated_region"]:
+        if not reg["calibrated"]:
+            add(f"            Camera {reg['camera']}: <not available>")
+        elif not reg["outside"]:
+            add(f"            Camera {reg['camera']}: none")
+        else:
+            add(f"            Camera {reg['camera']}: {len(reg['outside'])} measurement(s) "
+                "outside the convex hull of the tie point measurements")  # fmt: skip
+            for o in reg["outside"][:20]:
+                add(f"               pt {o['point']} ({o['label']}) on photo {o['image']}")
     add("      Point Measurements")
     add(f"         Number of control pts: {int((p.point_role == 'control').sum())}")
     add(f"         Number of check pts: {int((p.point_role == 'check').sum())}")
-    pts = d["points"]
-    add(f"         Number of object pts: {pts['n_tie']}")
-    add(f"         OP ray count: {pts['rays_min']}-{pts['rays_max']} ({pts['rays_mean']:.1f} avg)")
-    for k, v in pts["rays_histogram"].items():
-        add(f"            {v} points with {k} rays.")
+    add(f"         Number of object pts: {int((p.point_role == 'tie').sum())}")
+    for key in ("CP", "CCP", "OP"):
+        r = qual["rays"][key]
+        if r is None:
+            add(f"         {key} ray count: -")
+            continue
+        zero = f"{r['n_zero']}x0, " if r["n_zero"] else ""
+        add(f"         {key} ray count: {zero}{r['min']}-{r['max']} ({r['mean']:.1f} avg)")
+        for k, v in r["histogram"].items():
+            add(f"            {v} points with {k} rays.")
+    res = qual["residuals"]
     add("      Point Marking Residuals")
-    add(f"         Overall point RMS: {pts['residual_rms_px']:.3f} pixels")
-    add(f"         Maximum: {pts['residual_max_px']:.3f} pixels")
-    rms = [im["rms_px"] for im in d["images"]]
-    i0, i1 = int(np.argmin(rms)), int(np.argmax(rms))
+    add(f"         Overall point RMS: {res['overall_rms_px']:.3f} pixels")
+    add("         Mark point residuals:")
+    m = res["max"]
+    add(f"            Maximum: {m['px']:.3f} pixels (OP {m['point']} on photo {m['photo']})")
+    add("         Object point residuals (RMS over all images of a point):")
+    for word, key in (("Minimum", "point_min"), ("Maximum", "point_max")):
+        m = res[key]
+        add(f"            {word}: {m['px']:.3f} pixels (OP {m['point']} over {m['n_images']} "
+            "images)")  # fmt: skip
     add("         Photo residuals (RMS over all points in an image):")
-    add(
-        f"            Minimum: {rms[i0]:.3f} pixels (photo {i0 + 1} over "
-        f"{d['images'][i0]['n_points']} points)"
-    )
-    add(
-        f"            Maximum: {rms[i1]:.3f} pixels (photo {i1 + 1} over "
-        f"{d['images'][i1]['n_points']} points)"
-    )
-    if pts["std_total_min"] is not None:
-        add("      Point Precision")
-        add("         Total standard deviation (sqrt of sum of X/Y/Z variances):")
-        add(f"            Minimum: {pts['std_total_min']:.2g}")
-        add(f"            Maximum: {pts['std_total_max']:.2g}")
-        for ax, v in zip("XYZ", pts["std_max_xyz"], strict=True):
-            add(f"         Maximum {ax} standard deviation: {v:.2g}")
+    for word, key in (("Minimum", "photo_min"), ("Maximum", "photo_max")):
+        m = res[key]
+        add(f"            {word}: {m['px']:.3f} pixels (photo {m['photo']} over "
+            f"{m['n_points']} points)")  # fmt: skip
+    pr = qual["precision"]
+    if pr is not None:
         c = d["correlations"]
+        add("      Point Precision")
+        # DBAT's label; the value is sqrt(sX^2 + sY^2 + sZ^2), as DBAT computes it.
+        add("         Total standard deviation (RMS of X/Y/Z std):")
+        add(f"            Minimum: {pr['total_min']:.2g} (OP {pr['total_min_point']})")
+        add(f"            Maximum: {pr['total_max']:.2g} (OP {pr['total_max_point']})")
+        for ax, v, pid in zip("XYZ", pr["max_xyz"], pr["max_xyz_points"], strict=True):
+            add(f"         Maximum {ax} standard deviation: {v:.2g} (OP {pid})")
         add("         Points with high correlations")
         add(f"            Points with correlation above 95%: {c['op_pairs_above']}")
         add(f"            Points with correlation above 99%: {c['op_pairs_above_99']}")
-        add(
-            f"            Share of points with a correlation above 95%: "
-            f"{100 * c['op_share_points_above']:.1f}%"
-        )
         if c["op_pairs_above"]:
             add("            Points with highest correlations:")
             for pid, r in c["op_top"]:
                 add(f"               Points {pid}: {100 * r:.2f}")
-        add("      Point Angles")
-        add("         OP")
-        add(f"            Minimum: {pts['angle_min_deg']:.1f} degrees")
-        add(f"            Maximum: {pts['angle_max_deg']:.1f} degrees")
-        add(f"            Average: {pts['angle_mean_deg']:.1f} degrees")
-    for role, title in (("control_points", "Ctrl measurements"),
-                        ("check_points", "Check measurements")):  # fmt: skip
+    add("      Point Angles")
+    for key in ("CP", "CCP", "OP"):
+        a = qual["angles"][key]
+        add(f"         {key}")
+        if a is None:
+            for word in ("Minimum", "Maximum", "Average"):
+                add(f"            {word}: -")
+            continue
+        if a["n_zero_rays"]:
+            add(f"            Ignoring {a['n_zero_rays']} {key} with 0 rays.")
+        for word, k in (("Minimum", "min"), ("Maximum", "max")):
+            lab = a[f"{k}_label"]
+            extra = f", label {lab}" if key != "OP" and lab and lab != str(a[f"{k}_point"]) else ""
+            add(f"            {word}: {a[k]:.1f} degrees ({key} {a[f'{k}_point']}{extra})")
+        add(f"            Average: {a['mean']:.1f} degrees")
+        if key == "OP":
+            add("            Smallest angles (ID, angle [deg], vis in cameras)")
+            for s in a["smallest"]:
+                imgs = " ".join(f"{i:4d}" for i in s["images"])
+                add(f"               {s['point']:6d}: {s['angle']:5.2f} ({imgs})")
+    for role, title, word in (("control", "Ctrl measurements", "Ctrl"),
+                              ("check", "Check measurements", "Check")):  # fmt: skip
         add(f"      {title}")
-        grp = d[role]
-        if not grp["points"]:
+        tab = qual["reference"][role]
+        if tab is None:
             add("         none")
             continue
-        add("         id        label       dX          dY          dZ")
-        for q in grp["points"]:
-            r = q["residual"]
-            add(f"         {q['id']:<9} {q['label']:<10} {r[0]:+.5f} {r[1]:+.5f} {r[2]:+.5f}")
-        add(
-            f"         RMS                  {grp['rms'][0]:.5f}  {grp['rms'][1]:.5f}  "
-            f"{grp['rms'][2]:.5f}  (3D {grp['rms_3d']:.5f})"
-        )
+        _reference_table(tab, word, add)
+
+
+def _reference_table(tab: dict, word: str, add) -> None:
+    """DBAT's Prior / Posterior / Diff tables and the point delta summary."""
+    pre = "         "
+    add(pre + "Prior")
+    add(pre + f"{'id':>6}, {'x':>8}, {'y':>8}, {'z':>8}, {'stdx':>8}, {'stdy':>8}, "
+        f"{'stdz':>8}, label")  # fmt: skip
+    for r in tab["rows"]:
+        x, s = r["prior"], r["prior_std"]
+        add(pre + f"{r['id']:6d}, {x[0]:8.3f}, {x[1]:8.3f}, {x[2]:8.3f}, {s[0]:8.3g}, "
+            f"{s[1]:8.3g}, {s[2]:8.3g}, {r['label']}")  # fmt: skip
+    add(pre + "Posterior")
+    add(pre + f"{'id':>6}, {'x':>8}, {'y':>8}, {'z':>8}, {'stdx':>8}, {'stdy':>8}, "
+        f"{'stdz':>8}, {'rays':>4}, label")  # fmt: skip
+    for r in tab["rows"]:
+        x, s = r["posterior"], r["posterior_std"]
+        add(pre + f"{r['id']:6d}, {x[0]:8.3f}, {x[1]:8.3f}, {x[2]:8.3f}, {s[0]:8.3g}, "
+            f"{s[1]:8.3g}, {s[2]:8.3g}, {r['rays']:4d}, {r['label']}")  # fmt: skip
+    add(pre + "Diff (pos=abs diff, std=rel diff)")
+    add(pre + f"{'id':>6}, {'x':>8}, {'y':>8}, {'z':>8}, {'xy':>8}, {'xyz':>8}, {'stdx':>8}, "
+        f"{'stdy':>8}, {'stdz':>8}, {'rays':>4}, label")  # fmt: skip
+    for r in tab["rows"]:
+        x, s = r["delta"], r["std_change_pct"]
+        add(pre + f"{r['id']:6d}, {x[0]:8.3f}, {x[1]:8.3f}, {x[2]:8.3f}, {r['delta_xy']:8.3f}, "
+            f"{r['delta_xyz']:8.3f}, {s[0]:7.1f}%, {s[1]:7.1f}%, {s[2]:7.1f}%, "
+            f"{r['rays']:4d}, {r['label']}")  # fmt: skip
+    add(pre + f"{word} point delta")
+    m = tab["max"]
+    add(pre + f"   Max: {m['delta']:.3f} ou ({_label(m['label'], m['id'])}pt {m['id']})")
+    add(pre + "   Max X,Y,Z")
+    for ax, m in zip("XYZ", tab["max_xyz"], strict=True):
+        add(pre + f"      {ax}: {m['delta']:.3f} ou ({_label(m['label'], m['id'])}pt {m['id']})")
+    add(pre + f"   RMS: {tab['rms']:.3f} ou (from {tab['n']} items)")
+
+
+def _test_lines(d: dict, add) -> None:
+    """Our additions: coverage per photo, control point tests against their
+    intersection, data snooping."""
+    add("      Photo coverage per image (ours; DBAT prints the ranges above)")
+    add("         photo  points  rect %  hull %  radial %  RMS px  name")
+    for cov in d["quality"]["coverage"]:
+        for k, i in enumerate(cov["images"]):
+            im = d["images"][i]
+            add(
+                f"         {i + 1:5d}  {im['n_points']:6d}  {100 * cov['rect'][k]:6.1f}  "
+                f"{100 * cov['hull'][k]:6.1f}  {100 * cov['radial'][k]:8.1f}  "
+                f"{im['rms_px']:6.3f}  {im['name']}"
+            )
     for when in ("before", "after"):
         test = d["control_point_tests"][when]
         if not test or not test["points"]:
@@ -430,22 +614,40 @@ def report_text(result, data: dict | None = None) -> str:
             f"sigma {test['sigma']:.4g}; median |delta| {test['median_delta']:.4g} ou"
         )
         add("         id        label      role     rays  |delta| (ou)   T         gross")
-        for q in test["points"]:
+        for q_ in test["points"]:
             add(
-                f"         {q['id']:<9} {q['label']:<10} {q['role']:<8} {q['rays']:<5} "
-                f"{q['delta_norm']:<14.5g} {_g(q['T']):<9} {'GROSS' if q['gross'] else ''}"
+                f"         {q_['id']:<9} {q_['label']:<10} {q_['role']:<8} {q_['rays']:<5} "
+                f"{q_['delta_norm']:<14.5g} {_g(q_['T']):<9} {'GROSS' if q_['gross'] else ''}"
             )
     ds = d["data_snooping"]
     sym = "tau" if ds["test"] == "tau" else "w"
     add(f"      Data snooping ({ds['description']}) on image coordinates")
     add(f"         Critical value: {ds['critical']:.2f}; flagged observations: {ds['n_flagged']}")
-    for q in ds["worst"]:
+    for q_ in ds["worst"]:
         add(
-            f"            OP {q['point']} on image {q['image']}: |{sym}| = {q['statistic']:.2f}, "
-            f"residual ({q['residual_px'][0]:+.2f}, {q['residual_px'][1]:+.2f}) px"
+            f"            OP {q_['point']} on image {q_['image']}: |{sym}| = "
+            f"{q_['statistic']:.2f}, residual ({q_['residual_px'][0]:+.2f}, "
+            f"{q_['residual_px'][1]:+.2f}) px"
         )
+
+
+def report_text(result, data: dict | None = None) -> str:
+    """DBAT-style text report: DBAT's sections, labels and number formats, in its order.
+
+    Our additions (control file echo, datum, data snooping, control point tests
+    against their intersection) are extra lines; every section of DBAT 0.9.2's
+    ``bundle_result_file`` is present.
+    """
+    d = data or report_dict(result)
+    lines = ["Damped Bundle Adjustment Toolbox result file"]
+    add = lines.append
+    _header_lines(d, result, add)
+    _camera_lines(d, result, add)
+    _photo_lines(d, add)
+    _quality_lines(d, result, add)
+    _test_lines(d, add)
     add("End of result file")
-    return "\n".join(L) + "\n"
+    return "\n".join(lines) + "\n"
 
 
 def failure_text(diagnosis: dict, project_name: str, message: str) -> str:

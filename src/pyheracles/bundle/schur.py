@@ -43,6 +43,12 @@ def _chunks(n: int, size: int = _CHUNK):
         yield slice(s, min(n, s + size))
 
 
+def _add_block(mat: np.ndarray, rows: np.ndarray, cols: np.ndarray, blk: np.ndarray) -> None:
+    """``mat[rows, cols] += blk`` skipping the index -1 (fixed parameters)."""
+    r, c = rows >= 0, cols >= 0
+    mat[np.ix_(rows[r], cols[c])] += blk[np.ix_(r, c)]
+
+
 class _Scatter:
     """Accumulate small dense blocks into a dense (n,n) matrix.
 
@@ -93,6 +99,10 @@ class PointCameraSystem:
     order_grp: np.ndarray  # groups sorted by point
     max_rays: int
     max_groups: int
+    obs_image: np.ndarray  # (m,)
+    img_order: np.ndarray  # observations sorted by image
+    img_bounds: np.ndarray  # (n_img+1,) slices of img_order per image
+    img_eo_cols: np.ndarray  # (n_img,6)
     a_inv: np.ndarray | None = None
     s: np.ndarray | None = None
 
@@ -135,13 +145,19 @@ class PointCameraSystem:
         a[fi, :, fj] = 0.0
         a[fi, fj, fj] = 1.0
         g_op[fixed] = 0.0
-        # Camera block C = Jc^T Jc and gradient.
-        sc = _Scatter(nc)
-        for sl in _chunks(m):
-            jc = np.concatenate([ji[sl], je[sl]], axis=2)
-            cols = np.concatenate([io_cols_obs[sl], eo_cols[sl]], axis=1)
-            sc.add(cols, cols, jc.transpose(0, 2, 1) @ jc)
-        c = sc.matrix().copy()
+        # Camera block C = Jc^T Jc and gradient: every observation of an image has the
+        # same camera columns, so C is a sum of one dense Gram matrix per image (BLAS).
+        n_img = p.n_images
+        order_img = np.argsort(p.obs_image, kind="stable")
+        bounds = np.searchsorted(p.obs_image[order_img], np.arange(n_img + 1))
+        img_cols = np.concatenate([net.io_col[p.image_camera][:, union], net.eo_col], axis=1)
+        c = np.zeros((nc, nc))
+        for i in range(n_img):
+            idx = order_img[bounds[i] : bounds[i + 1]]
+            if not len(idx):
+                continue
+            x = np.concatenate([ji[idx], je[idx]], axis=2).reshape(-1, len(union) + 6)
+            _add_block(c, img_cols[i], img_cols[i], x.T @ x)
         g_cam = np.zeros(nc + 1)
         jtr_c = np.concatenate(
             [np.einsum("mki,mk->mi", ji, r_img), np.einsum("mki,mk->mi", je, r_img)], axis=1
@@ -190,6 +206,10 @@ class PointCameraSystem:
             order_grp=order_grp,
             max_rays=int(rays.max()) if npt else 0,
             max_groups=int(grp_count.max()) if npt else 0,
+            obs_image=p.obs_image,
+            img_order=order_img,
+            img_bounds=bounds,
+            img_eo_cols=net.eo_col,
         )
 
     # ------------------------------------------------------------- reduce
@@ -232,34 +252,38 @@ class PointCameraSystem:
             raise_singular(np.flatnonzero(bad))
         self.a_inv = np.linalg.inv(a)
         ainv = self.a_inv
-        sc = _Scatter(self.nc)
+        sc = _Scatter(self.nc)  # symmetric terms
+        pairs = _Scatter(self.nc)  # one of the two mirrored blocks of every pair term
         pt_obs = self.obs_point
-        # EO-EO: diagonal (k, k) and the pairs (k, l), (l, k).
         t_eo = ainv[pt_obs] @ self.b_eo
-        for sl in _chunks(len(pt_obs)):
-            sc.add(self.eo_cols[sl], self.eo_cols[sl],
-                   -self.b_eo[sl].transpose(0, 2, 1) @ t_eo[sl])  # fmt: skip
+        # EO-EO diagonal terms: one Gram-like product per image (same columns).
+        diag = np.zeros((self.nc, self.nc))
+        for i in range(len(self.img_bounds) - 1):
+            idx = self.img_order[self.img_bounds[i] : self.img_bounds[i + 1]]
+            if len(idx):
+                x = self.b_eo[idx].reshape(-1, 6)
+                y = t_eo[idx].reshape(-1, 6)
+                _add_block(diag, self.img_eo_cols[i], self.img_eo_cols[i], -(x.T @ y))
+        # EO-EO pairs (k, l) of the same point: block (k, l), mirrored at the end.
         for k, l_ in self._pairs_obs_obs():
             for sl in _chunks(len(k)):
                 kk, ll = k[sl], l_[sl]
                 blk = -self.b_eo[kk].transpose(0, 2, 1) @ t_eo[ll]
-                sc.add(self.eo_cols[kk], self.eo_cols[ll], blk)
-                sc.add(self.eo_cols[ll], self.eo_cols[kk], blk.transpose(0, 2, 1))
+                pairs.add(self.eo_cols[kk], self.eo_cols[ll], blk)
         if self.b_io.shape[2]:
             gp = self.group_point
             t_io = ainv[gp] @ self.b_io
             sc.add(self.io_cols, self.io_cols, -self.b_io.transpose(0, 2, 1) @ t_io)
             for g, h in self._pairs_grp_grp():
                 blk = -self.b_io[g].transpose(0, 2, 1) @ t_io[h]
-                sc.add(self.io_cols[g], self.io_cols[h], blk)
-                sc.add(self.io_cols[h], self.io_cols[g], blk.transpose(0, 2, 1))
+                pairs.add(self.io_cols[g], self.io_cols[h], blk)
             for g, k in self._pairs_grp_obs():
                 for sl in _chunks(len(k)):
                     gg, kk = g[sl], k[sl]
                     blk = -t_io[gg].transpose(0, 2, 1) @ self.b_eo[kk]
-                    sc.add(self.io_cols[gg], self.eo_cols[kk], blk)
-                    sc.add(self.eo_cols[kk], self.io_cols[gg], blk.transpose(0, 2, 1))
-        self.s = c + sc.matrix()
+                    pairs.add(self.io_cols[gg], self.eo_cols[kk], blk)
+        m = pairs.matrix()
+        self.s = c + diag + sc.matrix() + m + m.T
 
     # -------------------------------------------------------------- solve
     def back_substitute(self, dc: np.ndarray) -> np.ndarray:

@@ -18,8 +18,10 @@ _HELP = "\n\n".join(
         "standard deviations of the cameras, images and points, correlations over 95 %, "
         "control and check point residuals, per-image statistics, data snooping.",
         "PROJECT: a DBAT XML script (.xml, its operations give the estimated parameters and "
-        "the datum), a PhotoModeler text export (.txt), a PhotoScan/Metashape archive "
-        "(.psz) or a COLMAP text model folder.",
+        "the datum), a Metashape/PhotoScan camera export (.xml with a <chunk>: sensors, "
+        "cameras, markers and their projections), a PhotoModeler text export (.txt), a "
+        "PhotoScan/Metashape archive (.psz) or a COLMAP text model folder (cameras.txt, "
+        "images.txt, points3D.txt).",
         "--control: control/check points, one per line: id, label, X, Y, Z, then s or "
         "sX sY sZ, then 'check' for a check point (label, standard deviations and role "
         "optional; no standard deviation = fixed point). A first line of column names "
@@ -51,7 +53,11 @@ def register(app: typer.Typer) -> None:
     def bundle_cmd(
         project: Annotated[
             Path,
-            typer.Argument(metavar="PROJECT", help="Project file (.xml DBAT script, .txt PM)."),
+            typer.Argument(
+                metavar="PROJECT",
+                help="Project: .xml (DBAT script, Metashape cameras), .txt (PM), .psz, "
+                "COLMAP folder.",
+            ),
         ],
         out: Annotated[Path, typer.Option("-o", "--out", "--outdir", help="Output folder.")],
         control: Annotated[
@@ -131,6 +137,9 @@ def register(app: typer.Typer) -> None:
                     f"--image-size '{image_size}' is not WIDTHxHEIGHT (e.g. 6000x4000)"
                 ) from None
             size = (w_px, h_px)
+        # A COLMAP model is a folder: describe its files.
+        model_files = sorted(p for p in project.glob("*.txt")) if project.is_dir() else [project]
+        inputs = [*model_files, *(f for f in (control, positions) if f)]
         failed: Exception | None = None
         with warnings.catch_warnings(record=True) as caught, progress.enabled(console):
             warnings.simplefilter("always", BundleWarning)
@@ -170,7 +179,7 @@ def register(app: typer.Typer) -> None:
                     stage,
                     step="bundle",
                     parameters=params,
-                    inputs=[project, *(f for f in (control, positions) if f)],
+                    inputs=inputs,
                     timings={"read": t_read},
                     counts={"images": proj.n_images, "points": proj.n_points},
                     extra={"failed": True, "error": str(failed), "warnings": notes},
@@ -187,7 +196,7 @@ def register(app: typer.Typer) -> None:
                 stage,
                 step="bundle",
                 parameters=params,
-                inputs=[project, *(f for f in (control, positions) if f)],
+                inputs=inputs,
                 timings=timings,
                 counts={
                     "images": result.project.n_images,

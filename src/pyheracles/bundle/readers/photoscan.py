@@ -23,18 +23,20 @@ without distortion (as in the shipped Strasbourg project).
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ET
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from pyheracles.bundle.camera import IO_NAMES, Camera
 from pyheracles.bundle.initial import angles_from_rotation
-from pyheracles.bundle.project import Project
+from pyheracles.bundle.project import BundleWarning, Project
 from pyheracles.errors import InputError
 
-__all__ = ["read_photoscan"]
+__all__ = ["project_from_chunk", "read_photoscan"]
 
 _PLY_TYPES = {
     "char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "uint": "u4",
@@ -96,116 +98,209 @@ def read_photoscan(path: str | Path) -> Project:
         chunk = doc.find("chunk")
     if chunk is None:
         raise InputError("no chunk in doc.xml", path=path)
-    sensor = chunk.find("sensors/sensor")
-    if sensor is None:
-        raise InputError("no sensor in doc.xml", path=path)
+    return project_from_chunk(chunk, path, read_member=zf.read, fmt="photoscan")
+
+
+def _sensor_camera(sensor: ET.Element, cid: int, path: Path) -> Camera:
+    """A :class:`Camera` from a ``<sensor>`` (its adjusted calibration, else the initial)."""
     res = sensor.find("resolution")
+    if res is None:
+        raise InputError(f"sensor {sensor.get('id')} has no <resolution>", path=path)
     iw, ih = int(res.get("width")), int(res.get("height"))
     props = {p.get("name"): p.get("value") for p in sensor.findall("property")}
-    pw = float(props.get("pixel_width", 1.0))
-    ph = float(props.get("pixel_height", pw))
+    pw = float(props.get("pixel_width") or 0.0)
+    ph = float(props.get("pixel_height") or 0.0) or pw
     cals = sensor.findall("calibration")
     cal = next((c for c in cals if c.get("class") == "adjusted"), cals[0] if cals else None)
     if cal is None:
-        raise InputError("sensor without calibration", path=path)
+        raise InputError(
+            f"sensor {sensor.get('id')} has no <calibration>",
+            path=path,
+            hint="export the cameras after the alignment (Tools > Camera Calibration)",
+        )
+    if pw <= 0:
+        # No metric pixel size: a nominal one (results in pixels do not depend on it).
+        pw = ph = 0.005
+        warnings.warn(
+            f"{path}: sensor {sensor.get('id')} has no pixel size; using a nominal 0.005 mm",
+            BundleWarning,
+            stacklevel=3,
+        )
 
     def cnum(tag: str, default: float = 0.0) -> float:
         el = cal.find(tag)
         return float(el.text) if el is not None and el.text else default
 
-    if cal.find("fx") is not None:
-        fx, cx, cy = cnum("fx"), cnum("cx"), cnum("cy")
-    else:  # newer format: f, and cx, cy relative to the image centre
-        fx = cnum("f") + cnum("b1")
+    b1, b2 = cnum("b1"), cnum("b2")
+    if cal.find("fx") is not None:  # PhotoScan 1.x: fx, fy, cx, cy from the corner
+        fx, fy = cnum("fx"), cnum("fy", cnum("fx"))
+        cx, cy = cnum("cx"), cnum("cy")
+    else:  # Metashape: f, b1 (fx = f + b1), b2 (skew), cx, cy from the image centre
+        fy = cnum("f")
+        fx = fy + b1
         cx, cy = cnum("cx") + iw / 2, cnum("cy") + ih / 2
-    focal = fx * pw
+    if fx <= 0 or fy <= 0:
+        raise InputError(f"sensor {sensor.get('id')}: focal length must be > 0", path=path)
+    focal = fy * ph
     k = [-cnum(f"k{i}") * focal ** (-2 * i) for i in (1, 2, 3)]
     p1, p2 = cnum("p1") / focal, cnum("p2") / focal
-    cam = Camera(
-        id=1,
+    affine = abs(fx / fy - 1) > 1e-12 or b2 != 0
+    return Camera(
+        id=cid,
         name=sensor.get("label", ""),
         image_size_px=(iw, ih),
         sensor_size_mm=(iw * pw, ih * ph),
         cc_mm=focal,
         pp_mm=(cx * pw, cy * ph),
+        # x_corr = (1 + as) x + sk y reproduces u = cx + (f + b1) x' + b2 y' (model 3).
+        aspect_diff=fy / fx - 1.0 if affine else 0.0,
+        skew=b2 / fx if affine else 0.0,
         k=tuple(k),
         p=(-p2, p1),
-        model=1,
-        extra={"forward_calibration": {"fx": fx, "cx": cx, "cy": cy}},
+        model=3 if affine else 1,
+        extra={"forward_calibration": {"fx": fx, "fy": fy, "cx": cx, "cy": cy}},
     )
 
-    # Chunk-to-world similarity.
-    tr = chunk.find("transform")
-    rot_w = np.eye(3)
-    t_w = np.zeros(3)
-    s_w = 1.0
-    if tr is not None:
-        if tr.find("rotation") is not None:
-            rot_w = _floats(tr.findtext("rotation")).reshape(3, 3)
-        if tr.find("translation") is not None:
-            t_w = _floats(tr.findtext("translation"))
-        if tr.find("scale") is not None:
-            s_w = float(tr.findtext("scale"))
+
+def _similarity(el: ET.Element | None) -> np.ndarray:
+    """4x4 matrix of a ``<transform>`` with ``rotation``/``translation``/``scale``
+    children (identity when absent)."""
+    m = np.eye(4)
+    if el is None:
+        return m
+    if el.find("rotation") is not None:
+        m[:3, :3] = _floats(el.findtext("rotation")).reshape(3, 3)
+    if el.find("scale") is not None:
+        m[:3, :3] *= float(el.findtext("scale"))
+    if el.find("translation") is not None:
+        m[:3, 3] = _floats(el.findtext("translation"))
+    return m
+
+
+def _marker_locations(chunk: ET.Element) -> list[tuple[int, ET.Element]]:
+    """(marker id, <location>) pairs: in the first frame (projects, exports) or in
+    the markers themselves."""
+    out = []
+    frame = chunk.find("frames/frame")
+    if frame is not None:
+        for mk in frame.findall("markers/marker"):
+            out.extend((int(mk.get("marker_id")), loc) for loc in mk.findall("location"))
+    for mk in chunk.findall("markers/marker"):
+        out.extend((int(mk.get("id")), loc) for loc in mk.findall("location"))
+    return out
+
+
+def project_from_chunk(
+    chunk: ET.Element,
+    path: Path,
+    read_member: Callable[[str], bytes] | None = None,
+    fmt: str = "photoscan",
+) -> Project:
+    """A :class:`Project` from an Agisoft ``<chunk>`` (project ``doc.xml`` or camera export).
+
+    Parameters
+    ----------
+    chunk
+        The chunk element: sensors, components, cameras, markers, frames.
+    path
+        The file it came from (for messages).
+    read_member
+        Reads a member of the project archive (tie point PLY files); None for a
+        camera export, which has no tie points.
+    fmt
+        Format name recorded in ``Project.meta``.
+    """
+    sensors = chunk.findall("sensors/sensor")
+    if not sensors:
+        raise InputError("no sensor in the chunk", path=path)
+    sensor_index = {int(s.get("id", k)): k for k, s in enumerate(sensors)}
+    cams = tuple(_sensor_camera(s, k + 1, path) for k, s in enumerate(sensors))
+    # Chunk-to-world similarity and component-to-chunk transforms (Metashape >= 1.6).
+    chunk_t = _similarity(chunk.find("transform"))
+    s_w = (
+        float(np.cbrt(np.linalg.det(chunk_t[:3, :3])))
+        if chunk.find("transform") is not None
+        else 1.0
+    )
+    rot_w = chunk_t[:3, :3] / s_w
+    comps = {int(c.get("id")): _similarity(c.find("transform"))
+             for c in chunk.findall("components/component")}  # fmt: skip
 
     def to_world(x: np.ndarray) -> np.ndarray:
-        return s_w * x @ rot_w.T + t_w
+        return x @ chunk_t[:3, :3].T + chunk_t[:3, 3]
 
-    # Cameras (enabled and oriented).
-    cam_ids, names, eo = [], [], []
+    cam_ids, names, eo, cam_of, skipped = [], [], [], [], []
     for c in chunk.findall("cameras/camera"):
         t = c.findtext("transform")
         if c.get("enabled", "true") == "false" or not t:
+            skipped.append(c.get("label", c.get("id")))
             continue
         m = _floats(t).reshape(4, 4)
+        if c.get("component_id") is not None and int(c.get("component_id")) in comps:
+            m = comps[int(c.get("component_id"))] @ m
+        sid = int(c.get("sensor_id", sensors[0].get("id", 0)))
+        if sid not in sensor_index:
+            raise InputError(f"camera {c.get('id')} uses unknown sensor {sid}", path=path)
         centre = to_world(m[:3, 3][None])[0]
-        # PhotoScan cameras look along +z with y down; ours along -z with y up.
+        # Agisoft cameras look along +z with y down; ours along -z with y up.
         r = rot_w @ m[:3, :3] @ np.diag([1.0, -1.0, -1.0])
         u, _, vt = np.linalg.svd(r)
         r = u @ vt
         cam_ids.append(int(c.get("id")))
         names.append(c.get("label", c.get("id")))
+        cam_of.append(sensor_index[sid])
         eo.append(np.concatenate([centre, angles_from_rotation(r)[0]]))
     if not cam_ids:
-        raise InputError("no oriented camera in the project", path=path)
+        raise InputError(
+            "no oriented camera in the project",
+            path=path,
+            hint="align the photos before exporting",
+        )
+    if skipped:
+        warnings.warn(
+            f"{path}: {len(skipped)} camera(s) disabled or not aligned, left out: {skipped[:10]}",
+            BundleWarning,
+            stacklevel=2,
+        )
     cam_index = {cid: i for i, cid in enumerate(cam_ids)}
-    settings = {p.get("name"): float(p.get("value")) for p in chunk.findall("settings/property")}
+    settings = {p.get("name"): float(p.get("value")) for p in chunk.findall("settings/property")
+                if _is_number(p.get("value"))}  # fmt: skip
     std_marker = settings.get("accuracy_projections", 0.1)
     std_tie = settings.get("accuracy_tiepoints", 1.0)
 
     # Markers: references and image locations.
     ref: dict[int, tuple[str, np.ndarray, np.ndarray, bool]] = {}
+    labels_of: dict[int, str] = {}
     for mk in chunk.findall("markers/marker"):
+        labels_of[int(mk.get("id"))] = mk.get("label", mk.get("id"))
         r_el = mk.find("reference")
         if r_el is None or r_el.get("x") is None:
             continue
         xyz = np.array([float(r_el.get(a)) for a in "xyz"])
-        sxy = float(r_el.get("sxy", settings.get("accuracy_markers", 0.005)))
-        sz = float(r_el.get("sz", sxy))
+        default = settings.get("accuracy_markers", 0.005)
+        sxy = float(r_el.get("sxy", default))
+        sd = np.array([float(r_el.get("sx", sxy)), float(r_el.get("sy", sxy)),
+                       float(r_el.get("sz", sxy))])  # fmt: skip
         enabled = r_el.get("enabled", "true") != "false"
-        ref[int(mk.get("id"))] = (mk.get("label", mk.get("id")), xyz, np.array([sxy, sxy, sz]),
-                                  enabled)  # fmt: skip
-    frame = chunk.find("frames/frame")
-    if frame is None:
-        raise InputError("no frame with measurements in the project", path=path)
+        ref[int(mk.get("id"))] = (labels_of[int(mk.get("id"))], xyz, sd, enabled)
     obs_i, obs_id, obs_uv, obs_sd = [], [], [], []
-    for mk in frame.findall("markers/marker"):
-        mid = int(mk.get("marker_id"))
-        for loc in mk.findall("location"):
-            cid = int(loc.get("camera_id"))
-            if cid in cam_index and loc.get("pinned", "true") != "false":
-                obs_i.append(cam_index[cid])
-                obs_id.append(mid)
-                obs_uv.append([float(loc.get("x")), float(loc.get("y"))])
-                obs_sd.append(std_marker)
-    # Tie points.
-    pc = frame.find("point_cloud")
+    for mid, loc in _marker_locations(chunk):
+        cid = int(loc.get("camera_id"))
+        if cid in cam_index and loc.get("pinned", "true") != "false":
+            obs_i.append(cam_index[cid])
+            obs_id.append(mid)
+            obs_uv.append([float(loc.get("x")), float(loc.get("y"))])
+            obs_sd.append(std_marker)
+    # Tie points (project archives only).
+    frame = chunk.find("frames/frame")
+    pc = frame.find("point_cloud") if frame is not None else None
     tie_xyz: dict[int, np.ndarray] = {}
     offset = (max(ref) + 1) if ref else 0
     offset = int(10 ** np.ceil(np.log10(offset + 1)))
-    if pc is not None:
+    if pc is not None and read_member is not None:
         pts_el = pc.find("points")
         if pts_el is not None:
-            v = _read_ply_vertices(zf.read(pts_el.get("path")), pts_el.get("path"))
+            v = _read_ply_vertices(read_member(pts_el.get("path")), pts_el.get("path"))
             xyz_l = np.column_stack([v["x"], v["y"], v["z"]]).astype(float)
             for pid, x in zip(v["id"].astype(int), to_world(xyz_l), strict=True):
                 tie_xyz[int(pid) + offset] = x
@@ -213,7 +308,7 @@ def read_photoscan(path: str | Path) -> Project:
             cid = int(pr.get("camera_id"))
             if cid not in cam_index:
                 continue
-            v = _read_ply_vertices(zf.read(pr.get("path")), pr.get("path"))
+            v = _read_ply_vertices(read_member(pr.get("path")), pr.get("path"))
             ids = v["id"].astype(int) + offset
             keep = np.isin(ids, list(tie_xyz))
             obs_i.extend([cam_index[cid]] * int(keep.sum()))
@@ -221,13 +316,25 @@ def read_photoscan(path: str | Path) -> Project:
             obs_uv.extend(np.column_stack([v["x"], v["y"]])[keep].astype(float).tolist())
             obs_sd.extend([std_tie] * int(keep.sum()))
     if not obs_i:
-        raise InputError("no image measurements (markers or tie points)", path=path)
+        raise InputError(
+            "no image measurements (markers or tie points)",
+            path=path,
+            hint="export the cameras with their markers' projections, or give the .psz project",
+        )
     point_ids = np.unique(np.array(obs_id))
     n_pts = len(point_ids)
     xyz = np.full((n_pts, 3), np.nan)
     xyz_std = np.full((n_pts, 3), np.nan)
     role = np.full(n_pts, "tie", dtype=object)
-    labels = [str(i) for i in point_ids]
+    labels = [labels_of.get(int(i), str(i)) for i in point_ids]
+    unseen = [lab for mid, (lab, *_r) in ref.items() if mid not in set(point_ids.tolist())]
+    if unseen:
+        warnings.warn(
+            f"{path}: {len(unseen)} marker(s) with a reference but no image measurement, "
+            f"left out: {unseen[:10]}",
+            BundleWarning,
+            stacklevel=2,
+        )
     for mid, (lab, x, sd, enabled) in ref.items():
         j = int(np.searchsorted(point_ids, mid))
         if j < n_pts and point_ids[j] == mid:
@@ -244,10 +351,10 @@ def read_photoscan(path: str | Path) -> Project:
     return Project(
         name=chunk.get("label", path.stem),
         source=str(path),
-        cameras=(cam,),
+        cameras=cams,
         image_ids=np.asarray(cam_ids) + 1,
         image_names=tuple(names),
-        image_camera=np.zeros(n, int),
+        image_camera=np.asarray(cam_of, int),
         eo=np.asarray(eo),
         eo_std=np.full((n, 6), np.nan),
         point_ids=point_ids,
@@ -259,8 +366,16 @@ def read_photoscan(path: str | Path) -> Project:
         obs_point=np.searchsorted(point_ids, np.asarray(obs_id)),
         obs_uv_px=np.asarray(obs_uv, float),
         obs_std_px=np.column_stack([sd, sd]),
-        estimate_io=np.zeros((1, len(IO_NAMES)), bool),
+        estimate_io=np.zeros((len(cams), len(IO_NAMES)), bool),
         estimate_eo=np.ones((n, 6), bool),
         datum="control" if ref else None,
-        meta={"format": "photoscan", "tie_id_offset": offset},
+        meta={"format": fmt, "tie_id_offset": offset},
     )
+
+
+def _is_number(v: str | None) -> bool:
+    try:
+        float(v)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return False
+    return True
