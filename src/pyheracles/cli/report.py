@@ -14,8 +14,9 @@ _HELP = "\n\n".join(
         "Build the HTML report of an output folder written by any heracles command.",
         "The page is self-contained (opens offline, from a USB stick): what ran with which "
         "parameters (automatic values marked), the point balance, warnings, the sortable "
-        "objects table, the figures, an interactive 3D view of the labelled cloud with the "
-        "fitted primitives and check point residuals, and the provenance.",
+        "objects table, the figures, an interactive 3D view (WebGL, written for the report) of "
+        "the labelled cloud with the fitted primitives, walls and roofs, check and tie point "
+        "residuals or a bundle adjustment's cameras, and the provenance.",
         "Writes: OUTDIR/report.html (replacing an older one).",
         "Examples:",
         "  heracles report demo_out/result",

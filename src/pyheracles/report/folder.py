@@ -28,6 +28,8 @@ JSON_NAMES = (
     "evaluation.json",
     "frame.json",
 )
+#: 3D geometry drawn in the 3D view: GeoPackages of 3D polygons and CityJSON files.
+LAYER_NAMES = ("walls.gpkg", "openings.gpkg", "buildings.city.json")
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,9 @@ class RunFolder:
         PNG figures written by the step.
     tables, documents
         Other CSV tables and JSON documents by file name.
+    layers
+        3D geometry by file name: GeoDataFrames (``walls.gpkg``, ``openings.gpkg``)
+        and CityJSON documents (``buildings.city.json``).
     """
 
     path: Path
@@ -61,6 +66,7 @@ class RunFolder:
     images: list[Path] = field(default_factory=list)
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     documents: dict[str, Any] = field(default_factory=dict)
+    layers: dict[str, Any] = field(default_factory=dict)
 
     @property
     def step(self) -> str:
@@ -114,7 +120,25 @@ def read_run_folder(path: str | Path) -> RunFolder:
             except (OSError, ValueError):
                 continue
     images = sorted(x for x in p.glob("*.png"))
-    return RunFolder(p, run, objects, footprints, cloud, images, tables, docs)
+    return RunFolder(p, run, objects, footprints, cloud, images, tables, docs, _layers(p))
+
+
+def _layers(p: Path) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for n in LAYER_NAMES:
+        f = p / n
+        if not f.is_file():
+            continue
+        try:
+            if n.endswith(".json"):
+                out[n] = json.loads(f.read_text(encoding="utf-8"))
+            else:
+                import pyogrio
+
+                out[n] = pyogrio.read_dataframe(f)
+        except (OSError, ValueError, RuntimeError):
+            continue  # an unreadable layer is left out of the view, not fatal
+    return out
 
 
 def _objects(p: Path) -> tuple[pd.DataFrame | None, Any]:

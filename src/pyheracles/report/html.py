@@ -4,18 +4,20 @@ What ran with which parameters (automatic values marked), the point balance,
 warnings, the sortable objects table, the figures (plan with every object
 named, the step's own pictures, F1 per object when a reference was given, the
 DTM as a hillshade), an interactive 3D view of the labelled cloud with its
-fitted primitives and check point residuals, and the provenance.  Built from a
-jinja2 template; plotly's JavaScript and every picture are embedded, so the
-file needs nothing else (no CDN).
+fitted primitives, surfaces and check point residuals, and the provenance.
+Built from a jinja2 template; the 3D viewer (a small hand-written WebGL
+script, see :mod:`pyheracles.report.view3d`) and every picture are embedded,
+so the file needs nothing else (no CDN).
 """
 
 from __future__ import annotations
 
 import base64
 import dataclasses
-import html
+import functools
 import io
 import json
+import sys
 import time
 from importlib import import_module
 from pathlib import Path
@@ -28,7 +30,7 @@ from pyheracles.io.atomic import atomic_write_text
 from pyheracles.report.colours import hex_colour, object_colours
 from pyheracles.report.folder import RunFolder, read_run_folder, sample_cloud
 
-__all__ = ["REPORT_HTML", "build_report"]
+__all__ = ["REPORT_HTML", "auto_fields_from_source", "build_report"]
 
 REPORT_HTML = "report.html"
 
@@ -36,23 +38,88 @@ REPORT_HTML = "report.html"
 PARAMS_OF_STEP = {
     "complex": "pyheracles.complex:ComplexParams",
     "supports": "pyheracles.supports:SupportParams",
-    "beams": "pyheracles.framework:BeamParams",
-    "framework": "pyheracles.framework:BeamParams",
+    "beams": "pyheracles.beams:BeamParams",
+    "framework": "pyheracles.beams:BeamParams",
 }
 #: Columns that name an object, in order of preference.
 NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id", "role")
 
 
 def _auto_fields(step: str) -> set[str]:
+    """Fields of the step's parameter dataclass whose default is None (measured from the data).
+
+    Read from the already imported class when the step ran in this process;
+    otherwise from the module's source (``ast``), which spares ``heracles report``
+    importing the whole step (scipy and all) only to mark its automatic values.
+    """
     spec = PARAMS_OF_STEP.get(step)
     if spec is None:
         return set()
     mod, cls = spec.split(":")
-    try:
-        params = getattr(import_module(mod), cls)
-    except (ImportError, AttributeError):
-        return set()
+    params = getattr(sys.modules.get(mod), cls, None)
+    if params is None or not dataclasses.is_dataclass(params):
+        found = auto_fields_from_source(mod, cls)
+        if found is not None:
+            return found
+        try:
+            params = getattr(import_module(mod), cls)
+        except (ImportError, AttributeError):
+            return set()
     return {f.name for f in dataclasses.fields(params) if f.default is None}
+
+
+def _module_file(mod: str) -> Path | None:
+    import pyheracles
+
+    parts = mod.split(".")
+    if parts[0] != "pyheracles":
+        return None
+    base = Path(pyheracles.__file__).parent.joinpath(*parts[1:])
+    for f in (base.with_suffix(".py"), base / "__init__.py"):
+        if f.is_file():
+            return f
+    return None
+
+
+def auto_fields_from_source(mod: str, cls: str, depth: int = 3) -> set[str] | None:
+    """Annotated fields of class ``cls`` defaulting to None, from source; None if not found."""
+    import ast
+
+    path = _module_file(mod)
+    if path is None or depth < 0:
+        return None
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+    except (OSError, SyntaxError):
+        return None
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef) and node.name == cls:
+            out = set()
+            for st in node.body:
+                if not (isinstance(st, ast.AnnAssign) and isinstance(st.target, ast.Name)):
+                    continue
+                v = st.value
+                if (
+                    isinstance(v, ast.Call)
+                    and getattr(v.func, "id", getattr(v.func, "attr", "")) == "field"
+                ):
+                    v = next((k.value for k in v.keywords if k.arg == "default"), None)
+                    if v is None:
+                        continue
+                if isinstance(v, ast.Constant) and v.value is None:
+                    out.add(st.target.id)
+            return out
+    package = mod if path.name == "__init__.py" else mod.rsplit(".", 1)[0]
+    for node in tree.body:
+        if isinstance(node, ast.ImportFrom) and any(a.name == cls for a in node.names):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                src = ".".join(base + ([node.module] if node.module else []))
+            else:
+                src = node.module or ""
+            return auto_fields_from_source(src, cls, depth - 1)
+    return None
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
@@ -84,31 +151,37 @@ def _fmt(v: Any) -> str:
     return "" if v is None else str(v)
 
 
-def _labels(objects: pd.DataFrame | None) -> tuple[dict[int, str], dict[int, str]]:
-    """Instance -> display name, and instance -> hover text with the object's attributes."""
+def _labels(
+    objects: pd.DataFrame | None,
+) -> tuple[dict[int, str], dict[int, list[list[str]]], dict[int, str]]:
+    """Instance -> display name, -> ``[[attribute, value], ...]``, -> class."""
     if objects is None or "instance" not in objects:
-        return {}, {}
+        return {}, {}, {}
     col = next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
-    names, hovers = {}, {}
+    names: dict[int, str] = {}
+    attrs: dict[int, list[list[str]]] = {}
+    classes: dict[int, str] = {}
     for row in objects.to_dict("records"):
         try:
             i = int(row["instance"])
         except (TypeError, ValueError):
             continue
-        cls = row.get("class", "object")
+        cls = row.get("class")
+        cls = "object" if cls is None or str(cls) in ("", "nan") else str(cls)
         val = row.get(col) if col else None
         names[i] = f"{val}" if val is not None and str(val) not in ("", "nan") else f"{cls} {i}"
-        attrs = [f"<b>{html.escape(names[i])}</b> ({html.escape(str(cls))}, instance {i})"]
-        for k, v in list(row.items())[:18]:
+        classes[i] = cls
+        pairs = [["instance", str(i)]]
+        for k, v in list(row.items())[:24]:
             if (
                 k in ("instance", "geometry")
                 or v is None
                 or (isinstance(v, float) and not np.isfinite(v))
             ):
                 continue
-            attrs.append(f"{html.escape(str(k))}: {html.escape(_fmt(v))}")
-        hovers[i] = "<br>".join(attrs)
-    return names, hovers
+            pairs.append([str(k), _fmt(v)])
+        attrs[i] = pairs
+    return names, attrs, classes
 
 
 def _png_data_uri(path_or_bytes: Path | bytes) -> str:
@@ -125,28 +198,22 @@ def _fig_png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
-def _f1_figure(ev: pd.DataFrame) -> bytes | None:
+def _f1_svg(ev: pd.DataFrame) -> str | None:
     if "f1" not in ev or "object" not in ev:
         return None
     bars = ev[pd.to_numeric(ev["f1"], errors="coerce").notna()]
     bars = bars[~bars["object"].astype(str).isin(["mean", "median"])]
     if bars.empty:
         return None
-    import matplotlib
+    from pyheracles.report.charts import bar_chart_svg
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, max(2.5, 0.18 * len(bars))))
-    ax.barh(bars["object"].astype(str), bars["f1"].astype(float), color="steelblue")
-    ax.axvline(0.95, color="crimson", lw=1, ls="--", label="target F1 = 0.95")
-    ax.set_xlim(0, 1)
-    ax.invert_yaxis()
-    ax.set_xlabel("F1 per object against the reference")
-    ax.tick_params(axis="y", labelsize=7)
-    ax.legend(loc="lower left", fontsize=8)
-    fig.tight_layout()
-    return _fig_png(fig)
+    return bar_chart_svg(
+        bars["object"].astype(str).tolist(),
+        bars["f1"].astype(float).tolist(),
+        target=0.95,
+        target_label="target F1 = 0.95",
+        xlabel="F1 per object against the reference (orange: below the target)",
+    )
 
 
 def _hillshade(path: Path) -> bytes | None:
@@ -213,6 +280,26 @@ def _table(
     }
 
 
+@functools.lru_cache(maxsize=1)
+def _template() -> Any:
+    """The page template, compiled once per process."""
+    import jinja2
+
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("pyheracles.report", "templates"),
+        autoescape=jinja2.select_autoescape(["html", "j2"]),
+    )
+    return env.get_template("report.html.j2")
+
+
+@functools.lru_cache(maxsize=1)
+def _viewer_js() -> str:
+    """The viewer's JavaScript (plain JS; named .j2 so that it is packaged with the templates)."""
+    from importlib.resources import files
+
+    return files("pyheracles.report").joinpath("templates", "view3d.js.j2").read_text("utf-8")
+
+
 def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0) -> Path:
     """Write ``report.html`` into an output folder of a ``heracles`` command and return it.
 
@@ -230,21 +317,18 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
     InputError
         When the folder is not an output folder.
     """
-    import jinja2
-    from plotly.offline import get_plotlyjs
-
     t0 = time.perf_counter()
     folder: RunFolder = read_run_folder(outdir)
     run = folder.run
-    names, hovers = _labels(folder.objects)
+    names, attrs, classes = _labels(folder.objects)
     figures: list[dict[str, str]] = []
-    view = None
     crs = None
     warnings = [str(w) for w in (run.get("warnings") or [])]
     notes = [str(n) for n in (run.get("notes") or [])]
     if run.get("note"):
         notes.append(str(run["note"]))
     colours: dict[int, str] = {}
+    sample = None
     if folder.cloud is not None:
         sample = sample_cloud(folder.cloud, max_points=max_points, seed=seed)
         crs = sample.crs
@@ -253,49 +337,30 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
             ids = sorted(set(ids) | {int(i) for i in folder.objects["instance"].dropna()})
         cols = object_colours(max(ids, default=0))
         colours = {i: hex_colour(cols[i - 1]) for i in ids}
-        from pyheracles.report.plan import plan_figure
-        from pyheracles.report.view3d import primitive_lines, view3d_figure
-
         if ids:
+            from pyheracles.report.plan import plan_svg
+
             missing = [w for w in warnings if "no points" in w]
-            fig = plan_figure(
+            svg = plan_svg(
                 sample,
                 names,
                 footprints=folder.footprints,
                 missing=missing,
                 title=f"{folder.step}: {folder.path.name}",
             )
-            figures.append(
-                {
-                    "title": "Plan: every object in its own colour, named",
-                    "src": _png_data_uri(_fig_png(fig)),
-                }
-            )
-        checkpoints = folder.documents.get("checkpoints.json", {}).get("points", [])
-        view = view3d_figure(
-            sample,
-            names,
-            hovers,
-            primitives=primitive_lines(folder.objects, sample.origin),
-            checkpoints=checkpoints,
-        )
-        view_points = len(sample.xyz)
-        view_total = sample.n_total
-    else:
-        view_points = view_total = 0
-        images = (folder.documents.get("report.json") or {}).get("images")
-        if isinstance(images, list) and images:
-            from pyheracles.report.view3d import camera_figure
+            figures.append({"title": "Plan: every object in its own colour, named", "svg": svg})
+    from pyheracles.report.view3d import folder_scene
 
-            view = camera_figure(images)
-            view_points = view_total = len(images)
+    view = folder_scene(folder, sample, names, attrs, classes)
+    view_points = 0 if sample is None else len(sample.xyz)
+    view_total = 0 if sample is None else sample.n_total
     for img in folder.images:
         figures.append({"title": img.stem.replace("_", " "), "src": _png_data_uri(img)})
     ev = folder.tables.get("evaluation.csv")
     if ev is not None:
-        png = _f1_figure(ev)
-        if png:
-            figures.append({"title": "F1 per object", "src": _png_data_uri(png)})
+        svg = _f1_svg(ev)
+        if svg:
+            figures.append({"title": "F1 per object", "svg": svg})
     dtm = folder.path / "dtm.tif"
     if dtm.is_file():
         png = _hillshade(dtm)
@@ -318,11 +383,7 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
         for k, v in (folder.documents.get("report.json") or {}).items()
         if isinstance(v, int | float | str) and not isinstance(v, bool)
     }
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader("pyheracles.report", "templates"),
-        autoescape=jinja2.select_autoescape(["html", "j2"]),
-    )
-    page = env.get_template("report.html.j2").render(
+    page = _template().render(
         title=f"heracles {folder.step}: {folder.path.name}",
         run=run,
         step=folder.step,
@@ -334,14 +395,20 @@ def build_report(outdir: str | Path, *, max_points: int = 300_000, seed: int = 0
         notes=notes,
         objects=None if objects is None else _table(objects, colours),
         objects_title="Images" if folder.objects is None and objects is not None else "Objects",
-        view_what="camera stations" if folder.cloud is None else "points",
+        view_what="camera stations" if sample is None else "points",
         figures=figures,
         tables=tables,
         summary=summary,
-        view_json=None if view is None else json.dumps(view, separators=(",", ":")),
+        # "</" escaped so that no name can close the script element
+        view_json=None
+        if view is None
+        else json.dumps(view, separators=(",", ":")).replace("</", "<\\/"),
+        view_js=_viewer_js() if view is not None else "",
         view_points=view_points,
         view_total=view_total,
-        plotly_js=get_plotlyjs() if view is not None else "",
+        view_overlays=[]
+        if view is None
+        else [o["name"] for k in ("meshes", "lines", "markers") for o in view[k]],
         crs=crs,
         inputs=run.get("inputs") or [],
         timings=run.get("timings_s") or {},

@@ -1,32 +1,78 @@
-"""Plan view of a labelled cloud: every object in its own colour and labelled by its name."""
+"""Plan view of a labelled cloud: every object in its own colour and labelled by its name.
+
+Written as SVG: the points as one embedded raster (one pixel per point, objects
+drawn over the ground), the GIS outlines, labels, axes and legend as vector
+elements.  It prints sharply and takes milliseconds; the matplotlib version
+spent about 1.5 s laying out 30 labels and a 30-entry legend.
+"""
 
 from __future__ import annotations
 
+import base64
+import html
+import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from pyheracles.io.atomic import atomic_path
-from pyheracles.report.colours import GROUND, REMAINDER, object_colours
+from pyheracles.io.atomic import atomic_write_text
+from pyheracles.report.colours import GROUND, REMAINDER, hex_colour, object_colours
 from pyheracles.report.folder import CloudSample
 
-__all__ = ["plan_figure", "plot_plan"]
+__all__ = ["nice_ticks", "plan_svg", "plot_plan"]
 
 
 def plot_plan(sample: CloudSample, labels: Mapping[int, str], path: str | Path, **kw: Any) -> Path:
-    """Write :func:`plan_figure` as a PNG, atomically."""
-    import matplotlib.pyplot as plt
-
-    fig = plan_figure(sample, labels, **kw)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
-    plt.close(fig)
-    return Path(path)
+    """Write :func:`plan_svg` to an ``.svg`` file, atomically."""
+    return atomic_write_text(Path(path), plan_svg(sample, labels, **kw))
 
 
-def plan_figure(
+def nice_ticks(lo: float, hi: float, n: int = 6) -> np.ndarray:
+    """About ``n`` round tick values (steps of 1, 2 or 5 x 10^k) within ``[lo, hi]``.
+
+    Examples
+    --------
+    >>> nice_ticks(215003.2, 215071.9).tolist()
+    [215010.0, 215020.0, 215030.0, 215040.0, 215050.0, 215060.0, 215070.0]
+    """
+    span = max(hi - lo, 1e-9)
+    raw = span / max(n, 1)
+    mag = 10.0 ** np.floor(np.log10(raw))
+    step = next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw)
+    return np.arange(np.ceil(lo / step) * step, hi + step * 1e-9, step)
+
+
+def _raster_png(
+    layers: Sequence[tuple[np.ndarray, np.ndarray]],
+    lo: np.ndarray,
+    cell: float,
+    shape: tuple[int, int],
+) -> bytes:
+    """PNG (transparent, row 0 = north) of points as 2 x 2 pixel dots, each layer over the last.
+
+    ``layers`` are ``(xy, rgb 0-1)`` pairs in drawing order (ground, remainder, objects).
+    """
+    from PIL import Image
+
+    h, w = shape
+    img = np.zeros(h * w, np.uint32)  # RGBA packed, little-endian
+    for xy, colours in layers:
+        col = np.clip(((xy[:, 0] - lo[0]) / cell).astype(np.int64), 0, w - 2)
+        row = np.clip(h - 1 - ((xy[:, 1] - lo[1]) / cell).astype(np.int64), 1, h - 1)
+        rgb = np.round(255 * np.asarray(colours)).astype(np.uint32)
+        packed = rgb[:, 0] | (rgb[:, 1] << 8) | (rgb[:, 2] << 16) | np.uint32(255 << 24)
+        at = row * w + col
+        for off in (0, 1, -w, 1 - w):
+            img[at + off] = packed
+    img = img.view(np.uint8).reshape(h, w, 4)
+    buf = io.BytesIO()
+    Image.fromarray(img, "RGBA").save(buf, format="PNG", compress_level=3)
+    return buf.getvalue()
+
+
+def plan_svg(
     sample: CloudSample,
     labels: Mapping[int, str],
     *,
@@ -34,9 +80,9 @@ def plan_figure(
     missing: Sequence[str] = (),
     title: str = "",
     max_legend: int = 40,
-    max_points: int = 120_000,
-) -> Any:
-    """A plan (matplotlib figure): ground light grey, remainder dark grey, objects named.
+    map_px: tuple[int, int] = (760, 720),
+) -> str:
+    """A plan as an ``<svg>`` element: ground light grey, remainder dark grey, objects named.
 
     Parameters
     ----------
@@ -47,97 +93,129 @@ def plan_figure(
     footprints
         GeoDataFrame of the objects' polygons (world coordinates), drawn as outlines.
     missing
-        Names of features that got no points, listed under the map.
+        Features that got no points (warnings), listed under the map.
     title
-        First line of the title; the CRS and the counts follow.
+        First line of the title; the number of objects and the CRS follow.
     max_legend
         Objects listed in the legend at most (every object stays labelled on the map).
-    max_points
-        Points drawn at most (each object keeps at least 200).
+    map_px
+        Largest width and height of the map, pixels (one raster pixel per screen pixel).
     """
-    import matplotlib
+    import shapely
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    # a plan needs fewer points than the 3D view: at most max_points, every object kept
-    take = _thin(sample.instance, max_points)
-    xy = sample.xyz[take, :2].astype(float) + sample.origin[:2]
-    inst = sample.instance[take]
-    fig, ax = plt.subplots(figsize=(11, 9))
-    g = sample.ground[take]
-    rest = (inst == 0) & ~g
-    ax.scatter(xy[g, 0], xy[g, 1], s=0.2, color=GROUND, lw=0, rasterized=True)
-    ax.scatter(xy[rest, 0], xy[rest, 1], s=0.2, color=REMAINDER, lw=0, rasterized=True)
+    esc = html.escape
+    xy = sample.xyz[:, :2].astype(float)
+    inst = sample.instance
     ids = [int(i) for i in np.unique(inst) if i > 0]
     cols = object_colours(max(ids, default=0))
-    handles = [
-        Line2D([], [], ls="", marker="s", color=GROUND, label="ground"),
-        Line2D([], [], ls="", marker="s", color=REMAINDER, label="remainder"),
+    o = sample.origin[:2]
+    lo, hi = (xy.min(0), xy.max(0)) if len(xy) else (np.zeros(2), np.ones(2))
+    span = np.maximum(hi - lo, 1e-6)
+    cell = float(max(span[0] / map_px[0], span[1] / map_px[1]))
+    shape = (int(span[1] / cell) + 1, int(span[0] / cell) + 1)
+    w, h = shape[1], shape[0]
+    left, top, legend_w = 78, 52, 300
+    width, height = left + w + 24 + legend_w, top + h + 58 + (16 if missing else 0)
+
+    def sx(e: np.ndarray | float) -> np.ndarray | float:
+        return left + (np.asarray(e) - o[0] - lo[0]) / cell
+
+    def sy(n: np.ndarray | float) -> np.ndarray | float:
+        return top + h - (np.asarray(n) - o[1] - lo[1]) / cell
+
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" class="chart plan" width="{width}" '
+        f'height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif" '
+        'font-size="11">'
     ]
-    if ids:
-        m = inst > 0
-        ax.scatter(xy[m, 0], xy[m, 1], s=0.5, c=cols[inst[m] - 1], lw=0, rasterized=True)
-    for i in ids:
-        p = xy[inst == i]
-        name = labels.get(i, f"object {i}")
-        cx, cy = np.median(p[:, 0]), np.median(p[:, 1])
-        ax.annotate(
-            name,
-            (cx, cy),
-            fontsize=7,
-            ha="center",
-            va="center",
-            bbox={
-                "boxstyle": "round,pad=0.15",
-                "fc": "white",
-                "ec": cols[i - 1],
-                "alpha": 0.8,
-                "lw": 1,
-            },
-        )
-        if len(handles) < max_legend + 2:
-            handles.append(Line2D([], [], ls="", marker="s", color=cols[i - 1], label=name))
-    if footprints is not None and len(footprints):
-        footprints.boundary.plot(ax=ax, color="black", lw=0.6)
-        handles.append(Line2D([], [], color="black", lw=0.6, label="GIS outline"))
-    if len(ids) > max_legend:
-        handles.append(Line2D([], [], ls="", label=f"... {len(ids) - max_legend} more (on map)"))
-    ax.legend(
-        handles=handles,
-        loc="center left",
-        bbox_to_anchor=(1.01, 0.5),
-        fontsize=7,
-        markerscale=1.2,
-        frameon=False,
-    )
-    ax.set_aspect("equal")
-    ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_xlabel("E (m)")
-    ax.set_ylabel("N (m)")
     crs = sample.crs or "no CRS (local coordinates)"
-    ax.set_title(f"{title}\n{len(ids)} objects; CRS: {crs}".strip(), fontsize=10)
+    out.append(
+        f'<text x="{left}" y="18" font-size="13" font-weight="bold">{esc(title)}</text>'
+        f'<text x="{left}" y="36" font-size="12">{len(ids)} objects; CRS: {esc(crs)}</text>'
+    )
+    if len(xy):
+        g = sample.ground & (inst == 0)
+        rest = (inst == 0) & ~sample.ground
+        m = inst > 0
+        layers = [
+            (xy[g], np.broadcast_to(GROUND, (int(g.sum()), 3))),
+            (xy[rest], np.broadcast_to(REMAINDER, (int(rest.sum()), 3))),
+            (xy[m], cols[inst[m] - 1]),
+        ]
+        png = _raster_png(layers, lo, cell, shape)
+        uri = "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+        out.append(
+            f'<image x="{left}" y="{top}" width="{w}" height="{h}" href="{uri}" '
+            'style="image-rendering:pixelated"/>'
+        )
+    out.append(f'<rect x="{left}" y="{top}" width="{w}" height="{h}" fill="none" stroke="#888"/>')
+    for t in nice_ticks(lo[0] + o[0], hi[0] + o[0]):
+        x = float(sx(t))
+        out.append(
+            f'<line x1="{x:.1f}" y1="{top + h}" x2="{x:.1f}" y2="{top + h + 4}" stroke="#444"/>'
+            f'<text x="{x:.1f}" y="{top + h + 16}" text-anchor="middle">{t:.10g}</text>'
+        )
+    for t in nice_ticks(lo[1] + o[1], hi[1] + o[1]):
+        y = float(sy(t))
+        out.append(
+            f'<line x1="{left - 4}" y1="{y:.1f}" x2="{left}" y2="{y:.1f}" stroke="#444"/>'
+            f'<text x="{left - 6}" y="{y + 4:.1f}" text-anchor="end">{t:.10g}</text>'
+        )
+    out.append(
+        f'<text x="{left + w / 2:.1f}" y="{top + h + 34}" text-anchor="middle">E (m)</text>'
+        f'<text x="16" y="{top + h / 2:.1f}" text-anchor="middle" '
+        f'transform="rotate(-90 16 {top + h / 2:.1f})">N (m)</text>'
+    )
+    if footprints is not None and len(footprints):
+        d = []
+        for b in shapely.get_parts(shapely.boundary(np.asarray(footprints.geometry.values))):
+            if b is None or b.is_empty:
+                continue
+            c = shapely.get_coordinates(b)
+            pts = " ".join(
+                f"{a:.1f},{q:.1f}" for a, q in zip(sx(c[:, 0]), sy(c[:, 1]), strict=True)
+            )
+            d.append(f"M{pts}")
+        out.append(f'<path d="{" ".join(d)}" fill="none" stroke="black" stroke-width="0.7"/>')
+    world = xy + o
+    order = np.argsort(inst, kind="stable")
+    starts = np.searchsorted(inst[order], ids)
+    ends = np.searchsorted(inst[order], ids, side="right")
+    for i, s0, e0 in zip(ids, starts, ends, strict=True):
+        p = world[order[s0:e0]]
+        x, y = float(sx(np.median(p[:, 0]))), float(sy(np.median(p[:, 1])))
+        colour = hex_colour(cols[i - 1])
+        out.append(
+            f'<circle cx="{x:.1f}" cy="{y:.1f}" r="3.5" fill="{colour}" stroke="black" '
+            'stroke-width="0.6"/>'
+            f'<text x="{x + 5:.1f}" y="{y + 3.5:.1f}" font-size="10" stroke="white" '
+            'stroke-width="3" paint-order="stroke" stroke-linejoin="round">'
+            f"{esc(labels.get(i, f'object {i}'))}</text>"
+        )
+    entries = [("ground", hex_colour(GROUND)), ("remainder", hex_colour(REMAINDER))]
+    entries += [(labels.get(i, f"object {i}"), hex_colour(cols[i - 1])) for i in ids[:max_legend]]
+    lx, ly = left + w + 24, top + 4
+    for k, (name, colour) in enumerate(entries):
+        y = ly + 15 * k
+        out.append(
+            f'<rect x="{lx}" y="{y}" width="10" height="10" fill="{colour}"/>'
+            f'<text x="{lx + 15}" y="{y + 9}">{esc(name)}</text>'
+        )
+    y = ly + 15 * len(entries)
+    if footprints is not None and len(footprints):
+        out.append(
+            f'<line x1="{lx}" y1="{y + 5}" x2="{lx + 10}" y2="{y + 5}" stroke="black"/>'
+            f'<text x="{lx + 15}" y="{y + 9}">GIS outline</text>'
+        )
+        y += 15
+    if len(ids) > max_legend:
+        out.append(f'<text x="{lx}" y="{y + 9}">... {len(ids) - max_legend} more (on map)</text>')
     if missing:
         text = "features with no points: " + ", ".join(missing[:30])
         if len(missing) > 30:
             text += f" ... ({len(missing)} in all)"
-        fig.text(0.01, 0.01, text, fontsize=8, color="crimson")
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
-    return fig
-
-
-def _thin(instance: np.ndarray, max_points: int) -> np.ndarray:
-    """Indices of at most about ``max_points`` points, each object keeping up to 200."""
-    n = len(instance)
-    if n <= max_points:
-        return np.arange(n)
-    step = int(np.ceil(n / max_points))
-    keep = np.zeros(n, bool)
-    keep[::step] = True
-    order = np.argsort(instance, kind="stable")
-    ids, starts, counts = np.unique(instance[order], return_index=True, return_counts=True)
-    for i, s, c in zip(ids, starts, counts, strict=True):
-        if i > 0:
-            keep[order[s : s + min(c, 200)]] = True
-    return np.flatnonzero(keep)
+        out.append(
+            f'<text x="{left}" y="{height - 8}" fill="crimson" font-size="11">{esc(text)}</text>'
+        )
+    out.append("</svg>")
+    return "".join(out)
