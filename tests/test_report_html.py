@@ -370,7 +370,6 @@ def _objects_in(folder: Path) -> int:
     return len(pd.read_csv(folder / "objects.csv"))
 
 
-@pytest.mark.slow
 def test_supports_beams_and_registration_reports_in_a_real_browser(tmp_path: Path) -> None:
     from pyheracles.cloud import PointCloud
     from pyheracles.io import write_cloud
@@ -405,7 +404,6 @@ def test_supports_beams_and_registration_reports_in_a_real_browser(tmp_path: Pat
     assert "tie points: residuals" in (tmp_path / "reg" / "report.html").read_text("utf-8")
 
 
-@pytest.mark.slow
 def test_bundle_report_in_a_real_browser(shared_data: Path, tmp_path: Path) -> None:
     d = shared_data / "dbat" / "dbat"
     out = tmp_path / "bundle"
