@@ -316,15 +316,18 @@ def sweep(
 
 
 def _step_source() -> dict:
-    """Which step code ran: the module file and the git commit (and whether it is dirty)."""
+    """Which step code ran: the module files and the git commit (and whether it is dirty)."""
     import hashlib
     import subprocess
 
     import pyheracles.building as step
 
     src = Path(step.__file__).resolve()
+    files = ["building.py"] + sorted(
+        f"supports/{p.name}" for p in (src.parent / "supports").glob("*.py")
+    )
     info: dict = {"step_module": str(src)}
-    for name in ("building.py", "supports.py"):  # git blob ids: compare with git ls-tree
+    for name in files:  # git blob ids: compare with git ls-tree
         data = (src.parent / name).read_bytes()
         blob = hashlib.sha1(b"blob %d\0" % len(data) + data, usedforsecurity=False)
         info[f"blob_{name}"] = blob.hexdigest()[:12]
@@ -345,7 +348,7 @@ def _step_source() -> dict:
                 "--porcelain",
                 "--",
                 "building.py",
-                "supports.py",
+                "supports",
             ],
             capture_output=True,
             text=True,

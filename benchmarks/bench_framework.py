@@ -4,7 +4,9 @@ Run: ``python benchmarks/bench_framework.py [--quick]`` (one JSON line per measu
 ``python benchmarks/bench_framework.py --seeds`` for the robustness sweep alone (the three
 roof configurations over generator seeds 0-9, one JSON line per roof and a summary per
 configuration), or ``python benchmarks/bench_framework.py --sweep N [--first-seed S]``
-for the sweep over the ``roof`` scene family (draws S..S+N-1, see :func:`sweep`).
+for the sweep over the ``roof`` scene family (draws S..S+N-1, see :func:`sweep`), and
+``python benchmarks/bench_framework.py --summarize A.jsonl B.jsonl`` for the summary of a
+sweep run in parts (the draw lines of the files, then their summary line).
 
 Targets (issue 4):
 
@@ -35,8 +37,8 @@ import time
 import numpy as np
 
 from _common import emit
+from pyheracles.beams import segment_beams
 from pyheracles.errors import InputError
-from pyheracles.framework import segment_beams
 from pyheracles.geometry.neighbours import estimate_normals
 from pyheracles.segment.regiongrow import RegionGrowingParams, region_growing
 from pyheracles.synthetic.truss import Beam, TrussParams, make_truss_roof, scan_boxes
@@ -347,7 +349,7 @@ def bad_input() -> None:
     roof = make_truss_roof(TrussParams(n_points=60_000), rng=5)
     emit(dataset="bad/unoriented_normals", metric="design",
          value="normals are unoriented by construction; region growing compares |cos| "
-               "(tests/test_framework.py::test_unoriented_normals_do_not_matter)",
+               "(tests/test_beams.py::test_unoriented_normals_do_not_matter)",
          n_beams=len(segment_beams(roof.xyz).beams), reached=True)  # fmt: skip
 
 
@@ -563,7 +565,6 @@ def sweep(n: int, first: int = 0) -> None:
     the failure modes summed over the draws.  Outliers are left out of the
     scoring.
     """
-    from collections import Counter
 
     from pyheracles.synthetic.families import simulate
 
@@ -631,6 +632,22 @@ def sweep(n: int, first: int = 0) -> None:
             load_avg_1min=_load(),
         )
         rows.append(row)
+    summarize(rows, t_gen_total)
+
+
+def summarize(rows: list[dict], t_gen_total: float | None = None) -> None:
+    """Emit the sweep's summary line from its per-draw rows (see :func:`sweep`).
+
+    Also run on its own, ``--summarize FILE [FILE ...]``, over the draw lines
+    of JSONL files written by sweeps run in parts (``--sweep N --first-seed S``
+    in several processes): the rows are taken in seed order, duplicates once.
+    """
+    from collections import Counter
+
+    if t_gen_total is None:
+        t_gen_total = float(sum(r.get("gen_time_s", 0.0) for r in rows))
+    seeds = [int(r["seed"]) for r in rows]
+    first, n = min(seeds), len(rows)
     names = list(rows[0]["targets"])
     fails = [sum(not r["targets"][k] for k in names) for r in rows]
     worst = min(range(len(rows)), key=lambda i: (-fails[i], rows[i]["median_f1"]))
@@ -663,7 +680,7 @@ def sweep(n: int, first: int = 0) -> None:
         dataset="roof",
         metric="beams_family_sweep_summary",
         value=float(np.mean([r["reached"] for r in rows])),
-        seeds=[first, first + n - 1],
+        seeds=[first, max(seeds)],
         n_draws=n,
         share_all_targets=float(np.mean([r["reached"] for r in rows])),
         target_pass_share={k: float(np.mean([r["targets"][k] for r in rows])) for k in names},
@@ -680,7 +697,31 @@ def sweep(n: int, first: int = 0) -> None:
     )
 
 
+def _summarize_files(paths: list[str]) -> None:
+    import json
+
+    by_seed: dict[int, dict] = {}
+    for path in paths:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                line = line.strip()
+                if not line.startswith("{"):
+                    continue
+                rec = json.loads(line)
+                if rec.get("metric") == "beams_family_draw":
+                    by_seed.setdefault(int(rec["seed"]), rec)
+    if not by_seed:
+        sys.exit("no beams_family_draw lines in " + ", ".join(paths))
+    rows = [by_seed[k] for k in sorted(by_seed)]
+    for r in rows:
+        print(json.dumps(r), flush=True)
+    summarize(rows)
+
+
 if __name__ == "__main__":
+    if "--summarize" in sys.argv:
+        _summarize_files(sys.argv[sys.argv.index("--summarize") + 1 :])
+        sys.exit(0)
     emit(dataset="machine", metric="load_avg_1min", value=_load(), cpus=os.cpu_count())
     if SWEEP is not None:
         sweep(SWEEP, FIRST_SEED or 0)

@@ -291,16 +291,16 @@ def test_raster_islands_of_the_height_search_match_the_exact_clustering(
 ) -> None:
     """The cell-grid islands used to choose the section height find the same support
     islands (place and size) as the exact Euclidean clustering of the same slab."""
-    import pyheracles.supports as sup
+    import pyheracles.supports.height as sup
 
     if not dense:  # the sort path for sites too large for a dense cell table
-        monkeypatch.setattr(sup, "_DENSE_CELLS", 0)
+        monkeypatch.setattr(sup, "DENSE_CELLS", 0)
     scene = scenes["choir"]
     p = scene.xyz
     order = np.argsort(p[:, 2])
     params = SupportParams()
     distance, half = 0.1, 0.15
-    grid = sup._SlabGrid(p, order, distance / 2)
+    grid = sup.SlabGrid(p, order, distance / 2)
     zs = p[order, 2]
     for h in (1.0, 2.0, 4.0):  # fence and chairs below 3 m, plain columns above
         s, e = np.searchsorted(zs, [h - half, h + half])
@@ -358,19 +358,20 @@ def test_a_primitive_must_lie_within_its_points(monkeypatch: pytest.MonkeyPatch,
     to the body and the notes say so."""
     from dataclasses import replace
 
-    import pyheracles.supports as sup
+    import pyheracles.supports.primitives as sup
     from pyheracles.geometry.fitting import fit_oriented_box
+    from pyheracles.supports.core import Scales
 
-    sc = sup._Scales(spacing=0.03, distance=0.1, thickness=0.3, tol=0.06)
+    sc = Scales(spacing=0.03, distance=0.1, thickness=0.3, tol=0.06)
     pts = np.random.default_rng(0).uniform([0, 0, 0], [0.6, 0.4, 4.0], (24, 3))
     row = {"class": "pier", "x": 0.3, "y": 0.2, "box_length_m": 0.6, "box_width_m": 0.4}
-    assert sup._implausible(row, pts, sc) == ""
-    assert "279.00 m across" in sup._implausible({**row, "box_length_m": 279.0}, pts, sc)
-    assert "outside its points" in sup._implausible({**row, "x": 100.3}, pts, sc)
+    assert sup.implausible(row, pts, sc) == ""
+    assert "279.00 m across" in sup.implausible({**row, "box_length_m": 279.0}, pts, sc)
+    assert "outside its points" in sup.implausible({**row, "x": 100.3}, pts, sc)
     cyl = {"class": "column", "x": 0.3, "y": 0.2, "radius_m": 0.25}
-    assert sup._implausible(cyl, pts, sc) == ""
+    assert sup.implausible(cyl, pts, sc) == ""
     # an arc of a partly scanned column: the centre is outside the points, within a radius
-    assert sup._implausible({**cyl, "y": 0.6}, pts, sc) == ""
+    assert sup.implausible({**cyl, "y": 0.6}, pts, sc) == ""
 
     def far_box(points, **kwargs):  # a fit that went wrong: centred 100 m away
         box = fit_oriented_box(points, **kwargs)

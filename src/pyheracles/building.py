@@ -513,24 +513,24 @@ def _segment_building(
             SliceProfile(*[np.zeros(0)] * 3, np.zeros(0, dtype=np.int64)),
         )
     )
-    if split.has_attic:
-        body_idx = np.flatnonzero(~split.attic)
-        # z order of the body from the one of the whole cloud (one sort, not two)
-        position = np.cumsum(~split.attic) - 1  # index of each body point within the body
-        in_body = ~split.attic[order]
-        # the cloud was checked by prepare_building: the body is searched as it is
-        found = detect_supports_checked(
-            np.take(cloud.xyz, body_idx, axis=0),
-            supports,
-            None,
-            position[order[in_body]],
-            z_sorted[in_body],
+    # The section is searched in the body (its z order from the one of the whole cloud);
+    # the supports are cut out of the whole cloud, so that each keeps its full height up
+    # to what it carries, whatever the attic split said (eaves lower than the tops of the
+    # supports, a roofless ruin whose broken tops looked like an attic).
+    in_body = ~split.attic[order] if split.has_attic else slice(None)
+    found = detect_supports_checked(cloud.xyz, supports, None, order[in_body], z_sorted[in_body])
+    full = found.instance
+    attic_mask = split.attic & (full == 0)
+    if split.has_attic and (n_up := int(np.count_nonzero(split.attic & (full > 0)))):
+        found = replace(
+            found,
+            notes=(
+                *found.notes,
+                f"{n_up:,} points above the attic limit belong to supports (up to what they "
+                "carry): they are in the supports, not in the attic",
+            ),
         )
-        full = np.zeros(len(cloud.xyz), dtype=np.int32)
-        full[body_idx] = found.instance
-    else:  # the body is the whole cloud: no copy
-        found = detect_supports_checked(cloud.xyz, supports, None, order, z_sorted)
-        full = found.instance
+        split = replace(split, attic=attic_mask)
     found = replace(found, instance=full, objects=_to_input_frame(found.objects, cloud))
     notes = (*cloud.notes, *split.notes, *found.notes)
     return _segmentation(len(cloud.xyz), split.attic, found, notes), found, split, cloud

@@ -452,7 +452,7 @@ def _step2(kind: str, cloud: PointCloud) -> tuple[Segmentation, Any]:
         seg, _found, split, _ = segment_building(cloud.xyz, source=cloud.source)
         seg = replace(seg, objects=objects_in_world(seg.objects, cloud))
         return seg, {"attic_limit_z_levelled_m": split.limit_z}
-    from pyheracles.framework import segment_beams
+    from pyheracles.beams import segment_beams
 
     result = segment_beams(cloud)
     return result.to_segmentation(cloud.offset), {"beams": len(result.beams)}

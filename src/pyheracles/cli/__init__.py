@@ -34,7 +34,7 @@ COMMAND_MODULES: list[str] = [
     "complex",
     "demo",
     "evaluate",
-    "framework",
+    "beams",
     "ground",
     "registration",
     "pipeline",

@@ -10,7 +10,7 @@ import numpy as np
 import typer
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pyheracles.framework import BeamResult
+    from pyheracles.beams import BeamResult
 
 __all__ = ["plot_beams", "register"]
 
@@ -103,6 +103,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         from pyheracles import progress
+        from pyheracles.beams import BeamParams, segment_beams
         from pyheracles.cli.common import (
             console,
             output_dir,
@@ -110,7 +111,6 @@ def register(app: typer.Typer) -> None:
             print_objects,
             print_run_warnings,
         )
-        from pyheracles.framework import BeamParams, segment_beams
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
         from pyheracles.segment.regiongrow import RegionGrowingParams

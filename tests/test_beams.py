@@ -8,16 +8,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pyheracles.errors import InputError
-from pyheracles.framework import (
+from pyheracles.beams import (
     BeamCuboid,
     BeamParams,
     StraightFacet,
-    _collinear,
     fit_beam_cuboid,
     segment_beams,
     split_facet,
 )
+from pyheracles.beams.cuboids import collinear
+from pyheracles.errors import InputError
 from pyheracles.synthetic.truss import Beam, TrussParams, make_truss_roof, scan_boxes
 
 
@@ -219,12 +219,12 @@ def test_collinear_pieces_merge_when_one_side_was_not_seen():
     beside = _cuboid([0.25, 0, 0] + 2.3 * ax, 0.16)
     thin_beside = _cuboid([0.16, 0, 0] + 2.3 * ax, 0.076)
     cos_par = np.cos(np.radians(5.0))
-    assert _collinear(full, partial, cos_par, 1.0)
-    assert _collinear(partial, full, cos_par, 1.0)
-    assert not _collinear(full, beside, cos_par, 1.0)
-    assert not _collinear(full, thin_beside, cos_par, 1.0)
+    assert collinear(full, partial, cos_par, 1.0)
+    assert collinear(partial, full, cos_par, 1.0)
+    assert not collinear(full, beside, cos_par, 1.0)
+    assert not collinear(full, thin_beside, cos_par, 1.0)
     far = replace(partial, centre=partial.centre + 1.0 * ax)
-    assert not _collinear(full, far, cos_par, 1.0)  # 1.3 m gap
+    assert not collinear(full, far, cos_par, 1.0)  # 1.3 m gap
 
 
 def test_strut_face_behind_post_does_not_bite_the_post():

@@ -1,0 +1,68 @@
+"""Step 2b: beams of timber roof frameworks, each with a fitted cuboid.
+
+Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
+``axedetect``, ``beamSeg``).  The pipeline reads top-down:
+
+0. clouds denser than ``thin_spacing_m`` are thinned at random for the
+   geometry (normals of over-dense noisy scans are noise); labels come back to
+   every input point at step 5;
+1. a coarse (voxel-level) region growing finds the *wide surfaces* (floor,
+   walls, boarding: wider than the widest beam face in every direction,
+   :func:`~pyheracles.beams.facets.wide_surface_points`), which are left out;
+   :func:`~pyheracles.segment.regiongrow.region_growing` then cuts the rest,
+   with thresholds from the rest, into smooth planar *facets* (the faces of
+   the beams; coplanar faces of beams meeting in a joint come out as one L-,
+   T-, X- or Y-shaped facet); a region
+   that bridged two faces of a beam along a rounded edge is split by its
+   dominant normal directions;
+2. :func:`split_facet` cuts every facet into *straight facets*: bands of
+   constant width found with a Hough-style search in the facet plane (the
+   direction and offset whose band holds the densest line of points, longest
+   first), the width measured automatically at half the band's density
+   profile (the thesis asked the user for the beam width); a band that is a
+   strip of a wider coplanar surface (boarding between rafters) is dropped
+   (:func:`~pyheracles.beams.surfaces.wide_surface_bands`);
+3. :func:`group_facets` joins straight facets into beams: parallel axes and a
+   shared edge (boundary-to-boundary contact over at least half of the shorter
+   facet, not centroid distance), narrowest faces first and never into a
+   group no single beam can be (two coplanar faces side by side); a beam
+   needs at least two facets with non-parallel normals (otherwise no cuboid
+   is defined) and the rest goes back to the pool;
+4. collinear pieces of one beam (cut by a crossing beam in an X joint or by
+   a shadow) are merged, and :func:`fit_beam_cuboid` fits one oriented cuboid
+   per beam from its facets, lengthened over the short ends that gave no
+   facet of their own; groups of touching beams that all lie on a surface
+   (timber stored on the floor) are dropped
+   (:func:`~pyheracles.beams.surfaces.resting_loose`);
+5. every point within ``surface_tolerance_m`` of a cuboid surface is given to
+   the nearest cuboid (the thesis's re-merge of pool points): labels, not
+   copies, and nothing is lost (the remainder is label 0).
+"""
+
+from __future__ import annotations
+
+from pyheracles.beams.bands import split_facet
+from pyheracles.beams.cuboids import fit_beam_cuboid
+from pyheracles.beams.grouping import group_facets
+from pyheracles.beams.model import (
+    BEAM_CLASS,
+    BEAM_CLASS_ID,
+    BeamCuboid,
+    BeamParams,
+    BeamResult,
+    StraightFacet,
+)
+from pyheracles.beams.segment import segment_beams
+
+__all__ = [
+    "BEAM_CLASS",
+    "BEAM_CLASS_ID",
+    "BeamCuboid",
+    "BeamParams",
+    "BeamResult",
+    "StraightFacet",
+    "fit_beam_cuboid",
+    "group_facets",
+    "segment_beams",
+    "split_facet",
+]

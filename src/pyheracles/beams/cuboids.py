@@ -1,0 +1,327 @@
+"""Oriented cuboids of beams from their straight facets; merging collinear pieces."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pyheracles.beams.facets import half_max_edges
+from pyheracles.beams.grouping import UnionFind
+from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
+from pyheracles.errors import DegenerateGeometryError
+
+__all__ = [
+    "collinear",
+    "face_points",
+    "fit_beam_cuboid",
+    "merge_and_absorb",
+    "section_overlap",
+    "sparse_face",
+]
+
+
+def face_points(
+    xyz: NDArray[np.float64], f: StraightFacet, bin_m: float, free: NDArray[np.float64] | None
+) -> NDArray[np.float64]:
+    """The facet's points plus the unclaimed cloud points on its plane past its band.
+
+    Near an edge the normals are blended and points often stay out of every
+    facet; the side of a cuboid read from a face's edge needs them back.  Taken:
+    points in no straight facet (``free``, their coordinates; the adjacent face's own edge strip
+    would pile up at the edge) within 3 plane RMS of the plane, inside the
+    facet's length and at most 5 cm (or 10 bins) past its band on either side.
+    """
+    if free is None:
+        return xyz[f.index]
+    across = np.cross(f.normal, f.axis)
+    own = xyz[f.index]
+    t = (own - f.centre) @ f.axis
+    s = (own - f.centre) @ across
+    margin = max(0.05, 10 * bin_m)
+    lo = own.min(axis=0) - margin
+    hi = own.max(axis=0) + margin
+    cand = free[np.all((free >= lo) & (free <= hi), axis=1)]
+    rel = cand - f.centre
+    keep = (
+        (np.abs(rel @ f.normal) <= max(3.0 * f.plane_rms, bin_m))
+        & (rel @ f.axis >= t.min())
+        & (rel @ f.axis <= t.max())
+        & (rel @ across >= s.min() - margin)
+        & (rel @ across <= s.max() + margin)
+    )
+    return np.vstack([own, cand[keep]])
+
+
+#: Fewest points on an unfaceted side of a beam that locate that side.
+_SPARSE_FACE_MIN_POINTS = 15
+#: Smallest share of the beam's length covered by those points (10 cm bins).
+_SPARSE_FACE_MIN_COVER = 0.2
+
+
+def sparse_face(
+    free: NDArray[np.float64],
+    axis: NDArray[np.float64],
+    d: NDArray[np.float64],
+    other: NDArray[np.float64],
+    band: NDArray[np.float64],
+    t_range: tuple[float, float],
+    edge: float,
+    sign: float,
+    bin_m: float,
+) -> float:
+    """Offset along ``d`` of a beam side seen by too few points for a facet.
+
+    Candidates are the ``free`` points (in no facet) strictly between the
+    planes of the two adjacent faces (offsets ``band`` along ``other``), within
+    the beam's length, and within a few centimetres outside to one centimetre
+    inside the ``edge`` estimated from the adjacent faces (``sign`` -1 for the
+    low side, +1 for the high side).  Their median offset is returned when they
+    are enough, spread along the beam (10 cm bins holding them cover at least
+    ``_SPARSE_FACE_MIN_COVER`` of its length: the ends of beams resting on this
+    one are local) and lie on one plane across ``d`` (interquartile range below
+    ``bin_m``, at least 6 mm); otherwise ``edge`` is.
+    """
+    if len(free) == 0 or np.ptp(band) < 0.04:
+        return edge
+    margin = max(2.0 * bin_m, 0.01)
+    b_lo, b_hi = float(band.min()) + margin, float(band.max()) - margin
+    reach = max(6.0 * bin_m, 0.03)
+    a = free @ d
+    sel = (sign * (a - edge) <= reach) & (sign * (a - edge) >= -max(2.0 * bin_m, 0.01))
+    if not sel.any():
+        return edge
+    cand = free[sel]
+    o = cand @ other
+    t = cand @ axis
+    inside = (o >= b_lo) & (o <= b_hi) & (t >= t_range[0]) & (t <= t_range[1])
+    vals = a[sel][inside]
+    if len(vals) < _SPARSE_FACE_MIN_POINTS:
+        return edge
+    # a face runs along the beam: points bunched in a few spots (the ends of
+    # beams resting on this one, at a joint) are no side of it, even if their
+    # offsets agree by chance
+    step = max(0.1, 10.0 * bin_m)
+    occupied = len(np.unique(np.floor(t[inside] / step)))
+    if occupied * step < _SPARSE_FACE_MIN_COVER * (t_range[1] - t_range[0]):
+        return edge
+    # one plane across d: a thin layer (noise), not points of a crossing
+    # beam's faces, which fill the search window evenly
+    q1, q3 = np.quantile(vals, [0.25, 0.75])
+    if q3 - q1 > max(bin_m, 0.006):
+        return edge
+    return float(np.median(vals))
+
+
+def fit_beam_cuboid(
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    *,
+    bin_m: float,
+    free: NDArray[np.float64] | None = None,
+) -> BeamCuboid:
+    """Oriented cuboid of a beam from its straight facets.
+
+    Why not :func:`pyheracles.geometry.fitting.fit_oriented_box`: a beam in a
+    roof is seen on two or three of its faces only, and a PCA / minimum-area
+    box of such points underestimates the hidden sides.  The facets carry more
+    information, used here:
+
+    - the axis is the direction most orthogonal to the facet normals (smallest
+      eigenvector of ``sum n n^T``, weighted by points), exact for two
+      non-parallel faces;
+    - each side of the cross-section comes from the plane of the face on that
+      side (median offset, robust) when that face was seen, otherwise from the
+      half-density edge of the adjacent faces' points (unbiased by noise),
+      including the ``free`` points (``(m, 3)`` coordinates of the points in no
+      facet) on those faces' planes, which
+      restores the edge strips where blended normals kept points out of facets;
+    - the length from the 0.5 / 99.5 % quantiles of the points along the axis.
+
+    Raises
+    ------
+    DegenerateGeometryError
+        When the facets do not define a cross-section (all parallel).
+    """
+    normals = np.array([f.normal for f in facets])
+    w = np.array([len(f.index) for f in facets], dtype=float)
+    m = (normals * w[:, None]).T @ normals
+    ev, evec = np.linalg.eigh(m)
+    ref = facets[int(np.argmax(w))].axis
+    mean_axis = np.sum([f.axis * np.sign(f.axis @ ref) * len(f.index) for f in facets], axis=0)
+    if ev[1] >= 0.05 * ev.sum():
+        axis = evec[:, 0] * np.sign(evec[:, 0] @ mean_axis)
+    else:
+        # only parallel (opposite) faces: normal to the planes, along the band
+        # of the cleanest face (lowest plane RMS; an occluded face may carry a
+        # neighbour's points that tilt its band)
+        nrm = evec[:, 2]
+        best = min(facets, key=lambda f: f.plane_rms)
+        axis = best.axis - (best.axis @ nrm) * nrm
+        axis /= np.linalg.norm(axis)
+        axis *= np.sign(axis @ mean_axis)
+    # cross-section frame: the direction closer to horizontal is "width"
+    big = facets[int(np.argmax(w))].normal
+    u = big - (big @ axis) * axis
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    if abs(u[2]) > abs(v[2]):  # make u the more horizontal one
+        u, v = v, -u
+    pts = np.vstack([xyz[f.index] for f in facets])
+    bounds = []
+    for d, other in ((u, v), (v, u)):
+        facing = [f for f in facets if abs(f.normal @ d) >= abs(f.normal @ other)]
+        across = [f for f in facets if abs(f.normal @ d) < abs(f.normal @ other)]
+        offsets = np.array([np.median(xyz[f.index] @ d) for f in facing])
+        if across:
+            a_vals = np.concatenate([face_points(xyz, f, bin_m, free) @ d for f in across])
+        else:
+            a_vals = pts @ d
+        e_lo, e_hi = half_max_edges(a_vals, bin_m)
+        mid = 0.5 * (e_lo + e_hi)
+        if not across and len(offsets) >= 2:
+            mid = 0.5 * (offsets.min() + offsets.max())  # two opposite faces
+        lo_faces = offsets[offsets < mid] if len(offsets) else offsets
+        hi_faces = offsets[offsets >= mid] if len(offsets) else offsets
+        b_lo = float(np.median(lo_faces)) if len(lo_faces) else e_lo
+        b_hi = float(np.median(hi_faces)) if len(hi_faces) else e_hi
+        if free is not None and across and not (len(lo_faces) and len(hi_faces)):
+            # A side whose face gave no facet (seen by too few points, or at a
+            # grazing angle) is located by the edge of the adjacent faces only
+            # to within a scan-line spacing; the face's own points, if any were
+            # scanned, fix it (they lie between the adjacent faces' planes).
+            band = np.array([np.median(xyz[f.index] @ other) for f in across])
+            t_all = pts @ axis
+            t_rng = (float(np.quantile(t_all, 0.005)), float(np.quantile(t_all, 0.995)))
+            if not len(lo_faces):
+                b_lo = sparse_face(free, axis, d, other, band, t_rng, e_lo, -1.0, bin_m)
+            if not len(hi_faces):
+                b_hi = sparse_face(free, axis, d, other, band, t_rng, e_hi, 1.0, bin_m)
+        bounds.append((b_lo, b_hi))
+    t = pts @ axis
+    t_lo, t_hi = np.quantile(t, [0.005, 0.995])
+    (u_lo, u_hi), (v_lo, v_hi) = bounds
+    if min(u_hi - u_lo, v_hi - v_lo) <= 0:
+        raise DegenerateGeometryError("the facets of this beam give no cross-section")
+    centre = axis * 0.5 * (t_lo + t_hi) + u * 0.5 * (u_lo + u_hi) + v * 0.5 * (v_lo + v_hi)
+    cub = BeamCuboid(
+        centre=centre,
+        axes=np.column_stack([axis, u, v]),
+        length=float(t_hi - t_lo),
+        width=float(u_hi - u_lo),
+        height=float(v_hi - v_lo),
+        rms=0.0,
+        n_facets=len(facets),
+    )
+    dist = np.abs(cub.signed_distance(pts))
+    return replace(cub, rms=float(np.sqrt(np.mean(dist**2))))
+
+
+def section_overlap(big: BeamCuboid, small: BeamCuboid) -> tuple[float, NDArray[np.float64]]:
+    """Share of ``small``'s cross-section inside ``big``'s, and its extents in ``big``'s frame.
+
+    Both sections are taken as rectangles in the plane across ``big``'s axis
+    (the axes are nearly parallel); ``small``'s is its bounding rectangle there.
+    """
+    d = small.centre - big.centre
+    rot = np.abs(big.axes[:, 1:].T @ small.axes[:, 1:])  # (2, 2) |cos| between section axes
+    half_small = rot @ (0.5 * np.array([small.width, small.height]))
+    centre = big.axes[:, 1:].T @ d
+    half_big = 0.5 * np.array([big.width, big.height])
+    inter = np.clip(
+        np.minimum(centre + half_small, half_big) - np.maximum(centre - half_small, -half_big),
+        0.0,
+        None,
+    )
+    return float(np.prod(inter) / max(np.prod(2 * half_small), 1e-12)), 2 * half_small
+
+
+def collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> bool:
+    """Two cuboids that are pieces of one beam cut by an X joint or a shadow.
+
+    Parallel, separated along the axis by at most ``max_gap``, and either with
+    the same cross-section (centres within 30 % of it, sizes within 25 % or
+    2 cm), or with the smaller section inside the larger one and one of its
+    sizes equal to the larger one's: a piece seen on too few faces (a side
+    shadowed by a crossing beam) has one side located by the edge of a partly
+    seen face, so one size comes out short; the refit of the merged beam takes
+    that side from the other piece's face.
+    """
+    if abs(a.axis @ b.axis) < cos_par:
+        return False
+    gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
+    if gap > max_gap:
+        return False
+    same = True
+    for x, y in ((a, b), (b, a)):
+        d = y.centre - x.centre
+        if abs(d @ x.axes[:, 1]) > 0.3 * x.width or abs(d @ x.axes[:, 2]) > 0.3 * x.height:
+            same = False
+    dims_a = np.sort([a.width, a.height])
+    dims_b = np.sort([b.width, b.height])
+    tol = np.maximum(0.25 * np.maximum(dims_a, dims_b), 0.02)
+    if same and not np.any(np.abs(dims_a - dims_b) > tol):
+        return True
+    big, small = (a, b) if a.width * a.height >= b.width * b.height else (b, a)
+    inside, sizes = section_overlap(big, small)
+    big_sizes = np.array([big.width, big.height])
+    one_equal = np.any(np.abs(sizes - big_sizes) <= np.maximum(0.1 * big_sizes, 0.01))
+    return bool(inside >= 0.8 and one_equal)
+
+
+def merge_and_absorb(
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    group: NDArray[np.int32],
+    p: BeamParams,
+    bin_m: float,
+    free: NDArray[np.float64] | None = None,
+) -> NDArray[np.int32]:
+    """Merge collinear beam pieces and absorb lone facets lying on a beam.
+
+    A beam crossed by another (X joint) or shadowed by one is seen as separate
+    pieces; their cuboids are collinear with the same cross-section, so they
+    are merged (gap at most ``max_gap_m``).  A straight facet left alone (one
+    face of a piece) joins the beam whose cuboid, extended by ``max_gap_m``
+    along its axis, it lies on.
+    """
+    n_groups = int(group.max(initial=0))
+    cubs: dict[int, BeamCuboid] = {}
+    for g in range(1, n_groups + 1):
+        try:
+            cubs[g] = fit_beam_cuboid(
+                xyz, [facets[i] for i in np.flatnonzero(group == g)], bin_m=bin_m, free=free
+            )
+        except DegenerateGeometryError:
+            continue
+    cos_par = np.cos(np.radians(p.parallel_deg))
+    ids = sorted(cubs)
+    uf = UnionFind(n_groups + 1)
+    for i, gi in enumerate(ids):
+        for gj in ids[i + 1 :]:
+            if collinear(cubs[gi], cubs[gj], cos_par, p.max_gap_m):
+                uf.union(gi, gj)
+    out = np.zeros(len(group), dtype=np.int32)
+    for k, g in enumerate(group):
+        if g > 0 and g in cubs:
+            out[k] = uf.find(int(g))
+    # lone facets on an (extended) beam
+    tol = max(3.0 * float(np.median([f.plane_rms for f in facets])), 0.01) if facets else 0.01
+    for k in np.flatnonzero(out == 0):
+        f = facets[k]
+        pts = xyz[f.index]
+        for g in ids:
+            c = cubs[g]
+            if abs(f.axis @ c.axis) < cos_par:
+                continue
+            longer = replace(c, length=c.length + 2 * p.max_gap_m)
+            if np.median(np.abs(longer.signed_distance(pts))) <= tol:
+                out[k] = uf.find(g)
+                break
+    # renumber 1..B by decreasing point count
+    roots = np.unique(out[out > 0])
+    sizes = [sum(len(facets[k].index) for k in np.flatnonzero(out == r)) for r in roots]
+    order = [int(r) for _, r in sorted(zip(sizes, roots, strict=True), key=lambda t: (-t[0], t[1]))]
+    remap = {r: i + 1 for i, r in enumerate(order)}
+    return np.array([remap.get(int(g), 0) for g in out], dtype=np.int32)

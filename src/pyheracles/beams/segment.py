@@ -1,0 +1,310 @@
+"""Driver of the step, :func:`segment_beams`, and the assignment of points to cuboids."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.beams.bands import split_facet
+from pyheracles.beams.cuboids import fit_beam_cuboid, merge_and_absorb
+from pyheracles.beams.facets import planar_parts, wide_surface_points
+from pyheracles.beams.grouping import group_facets
+from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
+from pyheracles.beams.surfaces import cuboid_contacts, resting_loose, wide_surface_bands
+from pyheracles.cloud import PointCloud
+from pyheracles.errors import DegenerateGeometryError, InputError
+from pyheracles.geometry.neighbours import as_xyz, build_tree, point_spacing
+from pyheracles.segment.regiongrow import Regions, region_growing
+
+__all__ = [
+    "assign_to_cuboids",
+    "candidates",
+    "extend_along_axis",
+    "lateral_face_normals",
+    "scatter",
+    "segment_beams",
+]
+
+
+def assign_to_cuboids(
+    xyz: NDArray[np.float64], beams: list[BeamCuboid], tol: float
+) -> NDArray[np.int32]:
+    """Each point to the cuboid whose surface is nearest, if within ``tol``."""
+    best = np.full(len(xyz), np.inf)
+    labels = np.zeros(len(xyz), dtype=np.int32)
+    for i, b in enumerate(beams):
+        cand = candidates(xyz, b, tol)
+        if len(cand) == 0:
+            continue
+        d = np.abs(b.signed_distance(xyz[cand]))
+        better = (d <= tol) & (d < best[cand])
+        best[cand[better]] = d[better]
+        labels[cand[better]] = i + 1
+    return labels
+
+
+def candidates(xyz: NDArray[np.float64], cub: BeamCuboid, margin: float) -> NDArray[np.int64]:
+    """Indices of the points in the cuboid's axis-aligned bounding box + margin.
+
+    A vectorised box test over all points is cheaper than a KD-tree ball query
+    for long beams (the ball around a 6 m beam holds most of a roof).
+    """
+    corners = cub.corners()
+    lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
+    inside = np.all((xyz >= lo) & (xyz <= hi), axis=1)
+    return np.flatnonzero(inside)
+
+
+def lateral_face_normals(cub: BeamCuboid, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Normal of the nearest lateral (long) face of the cuboid for every point."""
+    local = (pts - cub.centre) @ cub.axes
+    gap_w = cub.width / 2 - np.abs(local[:, 1])
+    gap_h = cub.height / 2 - np.abs(local[:, 2])
+    use_w = np.abs(gap_w) < np.abs(gap_h)
+    return np.where(use_w[:, None], cub.axes[:, 1], cub.axes[:, 2])
+
+
+def extend_along_axis(
+    xyz: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    free: NDArray[np.bool_],
+    cub: BeamCuboid,
+    tol: float,
+    max_gap: float,
+    spacing: float,
+    cos_normal: float,
+) -> BeamCuboid:
+    """Lengthen a cuboid over the points that continue its faces past its ends.
+
+    Short beam ends (overhangs, the part beyond a crossing beam) often give no
+    straight facet of their own; their points lie on the beam's extended long
+    faces, with the face's normal.  The cuboid grows over such points (not
+    claimed by another beam's facets) while they are contiguous (gaps below
+    ``max_gap / 2``, the size of a crossing beam); the cross-section is kept.
+    """
+    longer = replace(cub, length=cub.length + 2 * max_gap)
+    cand = candidates(xyz, longer, tol)
+    cand = cand[free[cand]]
+    if len(cand) == 0:
+        return cub
+    pts = xyz[cand]
+    on = np.abs(longer.signed_distance(pts)) <= tol
+    face_n = lateral_face_normals(cub, pts)
+    on &= np.abs(np.einsum("ij,ij->i", normals[cand], face_n)) >= cos_normal
+    t = (pts[on] - cub.centre) @ cub.axis
+    half = 0.5 * cub.length
+    step = max(0.5 * max_gap, 10 * spacing)
+    ends = []
+    for sign in (1.0, -1.0):
+        beyond = np.sort(sign * t[sign * t > half - tol])
+        end = half
+        if len(beyond) >= 20:
+            jumps = np.flatnonzero(np.diff(np.concatenate([[half], beyond])) > step)
+            run = beyond[: jumps[0]] if len(jumps) else beyond
+            if len(run) >= 20:
+                end = max(half, float(np.quantile(run, 0.995)))
+        ends.append(end)
+    hi, lo = ends[0], -ends[1]
+    return replace(cub, centre=cub.centre + cub.axis * 0.5 * (hi + lo), length=float(hi - lo))
+
+
+def scatter(values: NDArray, index: NDArray[np.int64], n: int) -> NDArray:
+    """``values`` of a subset (``index``) spread over ``n`` points, zeros elsewhere."""
+    out = np.zeros((n, *values.shape[1:]), dtype=values.dtype)
+    out[index] = values
+    return out
+
+
+def segment_beams(
+    xyz: ArrayLike | PointCloud,
+    params: BeamParams | None = None,
+    *,
+    tree: cKDTree | None = None,
+    rng: np.random.Generator | int | None = 0,
+) -> BeamResult:
+    """Segment the beams of a timber framework and fit a cuboid to each.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` coordinates in metres (local frame) or a :class:`PointCloud`.
+    params
+        :class:`BeamParams`.
+    tree
+        Shared KD-tree on ``xyz``.
+    rng
+        Seed for the subsampling of the direction search.
+
+    Returns
+    -------
+    BeamResult
+        Per-point beam labels aligned with the input (0 = remainder), one
+        :class:`BeamCuboid` per beam, the intermediate facets, timings.
+
+    Raises
+    ------
+    InputError
+        Empty or non-finite input, only wide planar surfaces (a floor, walls),
+        or no planar facet at all (the message says so: the cloud holds no
+        beam faces at this density / noise).
+    """
+    source = None
+    if isinstance(xyz, PointCloud):
+        xyz.validate(what="framework cloud")
+        source = xyz.source
+        arr = xyz.xyz
+    else:
+        arr = as_xyz(xyz)
+    p = (params or BeamParams()).validate()
+    if len(arr) < 4 * p.min_facet_points:
+        raise InputError(
+            f"the cloud has {len(arr)} points; beam segmentation needs at least "
+            f"{4 * p.min_facet_points}",
+            path=source,
+            hint="give a denser cloud (in Python: lower BeamParams.min_facet_points)",
+        )
+    gen = np.random.default_rng(rng)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    full = arr
+    if tree is None:
+        tree = build_tree(full)
+    spacing = point_spacing(full, tree)
+    keep = np.arange(len(full))
+    if p.thin_spacing_m is not None and spacing < p.thin_spacing_m:
+        fraction = (spacing / p.thin_spacing_m) ** 2
+        keep = np.flatnonzero(gen.random(len(full)) < fraction)
+        arr = full[keep]
+        tree = build_tree(arr)
+        spacing = point_spacing(arr, tree)
+    # wide surfaces first (coarse, voxel level), then the facets of the rest with
+    # thresholds from the rest: floors and walls do not set the beams' noise level
+    coarse = region_growing(arr, replace(p.region, level="voxel", voxel_m=None), tree=tree)
+    wide_pts = wide_surface_points(arr, coarse.labels, tree, max_width_m=p.max_beam_width_m)
+    cand = np.flatnonzero(~wide_pts)
+    if len(cand) < 4 * p.min_facet_points:
+        raise InputError(
+            "no beam faces: the cloud holds only wide planar surfaces (floor, walls, boarding)"
+            f" and {len(cand)} other points",
+            path=source,
+            hint="check that the cloud shows the frame's members",
+        )
+    sub = region_growing(arr[cand], p.region)
+    regions = Regions(
+        labels=scatter(sub.labels, cand, len(arr)),
+        normals=scatter(sub.normals, cand, len(arr)),
+        curvature=scatter(sub.curvature, cand, len(arr)),
+        params=sub.params,
+    )
+    timings["facets"] = time.perf_counter() - t0
+    if regions.n_regions == 0:
+        raise InputError(
+            "no planar facet found: the cloud has no smooth surfaces at this density",
+            path=source,
+            hint="check that the cloud shows the beams' faces, or raise --angle",
+        )
+    t1 = time.perf_counter()
+    order = np.argsort(regions.labels, kind="stable")
+    bounds = np.searchsorted(regions.labels[order], np.arange(regions.n_regions + 2))
+    facets: list[StraightFacet] = []
+    for r in range(1, regions.n_regions + 1):
+        idx = order[bounds[r] : bounds[r + 1]]
+        if len(idx) < p.min_facet_points:
+            continue
+        for part in planar_parts(regions.normals, idx, p.min_facet_points, gen):
+            facets.extend(split_facet(arr, part, p, spacing_m=spacing, parent=r, rng=gen))
+    # strips of boarding, floor or wall: the surface goes on past the band's edges
+    wide = wide_surface_bands(tree, arr, facets)
+    barrier_idx = [f.index for f, w in zip(facets, wide, strict=True) if w]
+    barrier = arr[np.concatenate(barrier_idx)] if barrier_idx else None
+    facets = [f for f, w in zip(facets, wide, strict=True) if not w]
+    timings["split"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    contact = p.contact_m
+    if contact is None:
+        sample = arr[:: max(1, len(arr) // 20000)]
+        r_k = float(np.median(tree.query(sample, k=p.region.k, workers=-1)[0][:, -1]))
+        contact = max(2.0 * r_k, 4.0 * spacing, 0.02)
+    group = group_facets(
+        arr,
+        facets,
+        parallel_deg=p.parallel_deg,
+        contact_m=contact,
+        min_contact_fraction=p.min_contact_fraction,
+        width_range=(p.min_beam_width_m, p.max_beam_width_m),
+        max_gap_m=p.max_gap_m,
+        barrier=barrier,
+    )
+    timings["group"] = time.perf_counter() - t2
+    t3 = time.perf_counter()
+    bin_m = max(spacing, 0.004)
+    # free: points in no facet that may still belong to a beam (not wide surfaces)
+    free_mask = ~wide_pts
+    for idx in barrier_idx:
+        free_mask[idx] = False
+    for f in facets:
+        free_mask[f.index] = False
+    free = arr[free_mask]
+    facet_beam = merge_and_absorb(arr, facets, group, p, bin_m, free)
+    cuboids: list[BeamCuboid] = []
+    final = np.zeros(len(facets), dtype=np.int32)
+    for g in range(1, int(facet_beam.max(initial=0)) + 1):
+        members = [facets[i] for i in np.flatnonzero(facet_beam == g)]
+        try:
+            cub = fit_beam_cuboid(arr, members, bin_m=bin_m, free=free)
+        except DegenerateGeometryError:
+            continue
+        cuboids.append(cub)
+        final[facet_beam == g] = len(cuboids)
+    facet_beam = final
+    rms = [f.plane_rms for f, g in zip(facets, facet_beam, strict=True) if g > 0]
+    tol = p.surface_tolerance_m
+    if tol is None:
+        tol = max(3.0 * float(np.median(rms)) if rms else 0.0, 0.01)
+    claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
+    for f, g in zip(facets, facet_beam, strict=True):
+        claimed[f.index] = g
+    cos_n = np.cos(np.radians(regions.params.angle_deg or 15.0))
+    cuboids = [
+        extend_along_axis(
+            arr,
+            regions.normals,
+            (claimed == 0) | (claimed == i + 1),
+            c,
+            tol,
+            p.max_gap_m,
+            spacing,
+            cos_n,
+        )
+        for i, c in enumerate(cuboids)
+    ]
+    # timber stored on the floor: it and what it touches lie on a surface going on around
+    contacts = cuboid_contacts(cuboids, max(contact, 2.0 * tol))
+    loose = resting_loose(tree, cuboids, contacts)
+    if loose.any():
+        renumber = np.concatenate([[0], np.cumsum(~loose) * ~loose]).astype(np.int32)
+        facet_beam = renumber[facet_beam]
+        cuboids = [c for c, lo in zip(cuboids, loose, strict=True) if not lo]
+    labels = assign_to_cuboids(full, cuboids, tol)
+    timings["cuboids"] = time.perf_counter() - t3
+    straight = np.zeros(len(arr), dtype=np.int32)
+    for i, f in enumerate(facets):
+        straight[f.index] = i + 1
+    facet_labels = regions.labels
+    if len(keep) < len(full):  # intermediate labels: from the nearest kept point
+        _, near = tree.query(full, k=1, workers=-1)
+        facet_labels, straight = facet_labels[near], straight[near]
+    resolved = replace(p, region=regions.params, contact_m=contact, surface_tolerance_m=tol)
+    return BeamResult(
+        labels=labels,
+        beams=tuple(cuboids),
+        facet_labels=facet_labels,
+        straight_labels=straight,
+        facet_beam=facet_beam,
+        params=resolved,
+        timings=timings,
+    )

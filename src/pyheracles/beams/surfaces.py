@@ -1,0 +1,279 @@
+"""Wide surfaces and loose objects: what looks like a beam face but is not one.
+
+A straight band cut from the underside of roof boarding between two rafters,
+from a floor or from the face of a wall is as straight and as planar as a beam
+face, and its width (the gap between two rafters) can be any timber size.
+What tells it apart is its *extent*: the surface goes on past the band's
+edges, coplanar, along most of its length (the next board beyond the rafter,
+the rest of the floor, the wall under a plate).  A beam face ends at its
+edges; past them, in its plane, there is air (except locally, where another
+member crosses in a joint).
+
+:func:`wide_surface_bands` measures that by probing the plane beside each
+band's two edges for cloud points; :func:`resting_loose` applies the same
+test at the underside of a found beam that touches no other beam (timber
+stored on the floor: the floor goes on around it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.beams.model import BeamCuboid, StraightFacet
+
+__all__ = ["cuboid_contacts", "plane_occupancy", "resting_loose", "wide_surface_bands"]
+
+#: Probes per side across the window beside an edge.
+_N_ACROSS = 10
+#: A side whose probes find points at least this often is a surface going on.
+WIDE_OCCUPANCY = 0.5
+
+
+def plane_occupancy(
+    tree: cKDTree,
+    origin: NDArray[np.float64],
+    along: NDArray[np.float64],
+    across: NDArray[np.float64],
+    t_range: tuple[float, float],
+    s_offsets: NDArray[np.float64],
+    radius: float,
+    step: float,
+    counts: tuple[NDArray[np.int64], NDArray[np.bool_]] | None = None,
+    thickness: float | None = None,
+) -> float:
+    """Longest run of hit rows along the most covered line of a plane strip, as a share.
+
+    Probes sit on the grid ``origin + t * along + s * across`` for ``t`` every
+    ``step`` over ``t_range`` (the rows) and ``s`` in ``s_offsets`` (the lines
+    along ``along``, metres); a probe finds a point within ``radius`` and
+    within ``thickness`` (default ``radius / 2``) of the plane, and a row is
+    hit on a line when it is hit there and on the two next lines (a coplanar
+    surface at least two line spacings wide, not the line where a surface crossing the plane meets
+    it: boarding above a rafter's side face).  On each
+    line the longest run of consecutive hit rows (a single missed row
+    bridged) is measured, and the longest of all returned over the number of
+    rows: a surface going on past an edge is often shadowed near the edge (by
+    the member whose face the strip borders) but covers a line further out
+    along the whole strip, while members crossing the strip (posts, struts
+    and rafters of a truss in the plane of a tie) cover each line over their
+    own width only, one run per member.
+    ``counts`` (optional): ``(owner, ok)``, the group of every cloud point
+    and whether each group's points count as found (``ok[owner[i]]``).
+    """
+    t = np.arange(t_range[0] + 0.5 * step, t_range[1], step)
+    if len(t) == 0:
+        t = np.array([0.5 * (t_range[0] + t_range[1])])
+    probes = (
+        origin[None, None, :]
+        + t[:, None, None] * along[None, None, :]
+        + s_offsets[None, :, None] * across[None, None, :]
+    ).reshape(-1, 3)
+    dist, idx = tree.query(probes, k=1, distance_upper_bound=radius, workers=1)
+    hit = np.isfinite(dist)
+    normal = np.cross(along, across)
+    off_plane = np.abs((tree.data[idx[hit]] - probes[hit]) @ normal)
+    hit[hit] = off_plane <= (0.5 * radius if thickness is None else thickness)
+    if counts is not None:
+        owner, ok = counts
+        hit[hit] = ok[owner[idx[hit]]]
+    hit = hit.reshape(len(t), len(s_offsets))
+    # a surface, not the line where another surface crosses the plane: three
+    # neighbouring lines hit together
+    hit = hit[:, :-2] & hit[:, 1:-1] & hit[:, 2:]
+    filled = hit.copy()
+    filled[1:-1] |= hit[:-2] & hit[2:]
+    best = 0
+    for col in filled.T:
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], col.astype(np.int8), [0]])))
+        if len(edges):
+            best = max(best, int((edges[1::2] - edges[::2]).max()))
+    return best / len(t)
+
+
+def _local_spacing(tree: cKDTree, pts: NDArray[np.float64]) -> float:
+    sample = pts[:: max(1, len(pts) // 200)]
+    d, _ = tree.query(sample, k=2, workers=1)
+    return float(np.median(d[:, 1]))
+
+
+def wide_surface_bands(
+    tree: cKDTree,
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    *,
+    window_m: float = 0.5,
+    occupancy: float = WIDE_OCCUPANCY,
+    parallel_deg: float = 5.0,
+) -> NDArray[np.bool_]:
+    """Which straight facets are strips of a wider surface (boarding, floor, wall).
+
+    Parameters
+    ----------
+    tree
+        KD-tree on ``xyz`` (the whole cloud, not only the facets).
+    xyz
+        ``(N, 3)`` points, metres.
+    facets
+        Straight facets (:class:`StraightFacet`).
+    window_m
+        Smallest width of the strip probed beside each edge, metres; the strip
+        is at least twice as wide as the band itself.
+    occupancy
+        A side is *covered* when at least this share of its probes find a
+        point; a band with a covered side is a strip of a wider surface.
+    parallel_deg
+        Points of another straight facet count only when its axis is parallel
+        to the band's within this angle, degrees: the next strip of boarding
+        beyond a rafter runs along the band, while the coplanar members of a
+        truss beside a tie (posts, rafters, struts) cross it.
+
+    Returns
+    -------
+    ``(n_facets,)`` bool, True for a strip of a wider surface.
+
+    Notes
+    -----
+    The probe radius is 1.5 times the band's own point spacing (at least
+    1.5 cm): the neighbouring surface is scanned from about as far as the band.
+    The strip starts two probe radii past the edge, so the band's own
+    adjacent faces (which leave the plane at the edge) are not counted.
+    """
+    out = np.zeros(len(facets), dtype=bool)
+    owner = np.full(len(xyz) + 1, -1, dtype=np.int64)  # + 1: the "no point" index
+    for i, f in enumerate(facets):
+        owner[f.index] = i
+    axes = np.array([f.axis for f in facets]).reshape(-1, 3)
+    cos_par = np.cos(np.radians(parallel_deg))
+    for i, f in enumerate(facets):
+        parallel = np.append(np.abs(axes @ f.axis) >= cos_par, True)  # [-1]: in no facet
+        parallel[i] = False
+        counts = (owner, parallel)
+        pts = xyz[f.index]
+        across = np.cross(f.normal, f.axis)
+        across /= np.linalg.norm(across)
+        rel = pts - f.centre
+        t = rel @ f.axis
+        s = rel @ across
+        t_lo, t_hi = np.quantile(t, [0.02, 0.98])
+        s_lo, s_hi = np.quantile(s, [0.01, 0.99])
+        radius = max(1.5 * _local_spacing(tree, pts), 0.015)
+        width = max(window_m, 2.0 * float(s_hi - s_lo))
+        start = 2.0 * radius
+        if width <= start:
+            continue
+        offs = start + (np.arange(_N_ACROSS) + 0.5) * (width - start) / _N_ACROSS
+        step = max(0.1, 2.0 * radius)
+        for sign, edge in ((1.0, s_hi), (-1.0, s_lo)):
+            occ = plane_occupancy(
+                tree,
+                f.centre,
+                f.axis,
+                across,
+                (float(t_lo), float(t_hi)),
+                edge + sign * offs,
+                radius,
+                step,
+                counts,
+            )
+            if occ >= occupancy:
+                out[i] = True
+                break
+    return out
+
+
+def cuboid_contacts(beams: list[BeamCuboid], gap_m: float) -> list[set[int]]:
+    """Neighbours of each cuboid: the others whose surfaces come within ``gap_m``.
+
+    Tested on the corners and edge midpoints of the smaller box against the
+    larger one's signed distance, and on a dense sample of each box's axis
+    segment, which catches crossings and butt joints alike.
+    """
+    n = len(beams)
+    out: list[set[int]] = [set() for _ in range(n)]
+    samples = []
+    for b in beams:
+        u = np.linspace(-0.5, 0.5, max(int(np.ceil(b.length / 0.05)), 2) + 1)
+        # points on the four long edges and the axis
+        pts = []
+        for a, c in ((-1, -1), (-1, 1), (1, -1), (1, 1), (0, 0)):
+            off = 0.5 * (a * b.width * b.axes[:, 1] + c * b.height * b.axes[:, 2])
+            pts.append(b.centre + off + u[:, None] * b.length * b.axis)
+        samples.append(np.vstack(pts))
+    for i in range(n):
+        for j in range(i + 1, n):
+            dij = beams[j].signed_distance(samples[i]).min()
+            dji = beams[i].signed_distance(samples[j]).min()
+            if min(dij, dji) <= gap_m:
+                out[i].add(j)
+                out[j].add(i)
+    return out
+
+
+def resting_loose(
+    tree: cKDTree,
+    beams: list[BeamCuboid],
+    contacts: list[set[int]],
+    *,
+    reach_m: float = 0.06,
+    window_m: float = 0.2,
+    occupancy: float = WIDE_OCCUPANCY,
+) -> NDArray[np.bool_]:
+    """Beams that are loose objects: in a group of touching beams that all lie on a surface.
+
+    A beam *lies on a surface* when it is about horizontal and a surface goes
+    on past its sides at the level of its underside (within ``reach_m``: the
+    underside is hidden, its level estimated): timber stored on the floor, a
+    strip of masonry.  Touching beams form groups (``contacts``, from
+    :func:`cuboid_contacts`); a group whose every beam lies on a surface is
+    not part of the frame, whose rafters, posts and braces lie on none.  A
+    lone beam with nothing around its underside (a single beam scanned on
+    its own) is kept.
+    """
+    n = len(beams)
+    lying = np.zeros(n, dtype=bool)
+    for i, b in enumerate(beams):
+        # the underside: the cross-section direction pointing most downwards
+        cands = [(b.axes[:, 1], b.width, b.height), (b.axes[:, 2], b.height, b.width)]
+        d, extent, side_extent = max(cands, key=lambda c: abs(c[0][2]))
+        if abs(d[2]) < 0.7 or abs(b.axis[2]) > 0.2:
+            continue  # not lying: an inclined or vertical member rests on no floor
+        down = -d * np.sign(d[2])
+        side = np.cross(b.axis, down)
+        bottom = b.centre + down * 0.5 * extent
+        start = 0.5 * side_extent + reach_m
+        offs = start + (np.arange(_N_ACROSS) + 0.5) * window_m / _N_ACROSS
+        half = 0.5 * b.length
+        for sign in (1.0, -1.0):
+            occ = plane_occupancy(
+                tree,
+                bottom,
+                b.axis,
+                side,
+                (-half, half),
+                sign * offs,
+                reach_m,
+                0.1,
+                thickness=reach_m,
+            )
+            if occ >= occupancy:
+                lying[i] = True
+                break
+    out = np.zeros(n, dtype=bool)
+    seen = np.zeros(n, dtype=bool)
+    for i in range(n):
+        if seen[i]:
+            continue
+        comp, stack = [], [i]
+        seen[i] = True
+        while stack:
+            k = stack.pop()
+            comp.append(k)
+            for j in contacts[k]:
+                if not seen[j]:
+                    seen[j] = True
+                    stack.append(j)
+        if lying[comp].all():
+            out[comp] = True
+    return out

@@ -1,0 +1,267 @@
+"""Back into 3D: the cookie-cutter around each section shape, floor and ceiling off,
+clutter off, final clustering."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.geometry.sections import sort_order
+from pyheracles.segment.euclidean import voxel_clusters
+from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.profile import (
+    attached_share,
+    band_reach,
+    carried_surface,
+    surface_tolerance,
+    wall_beside,
+)
+
+RING_M = 0.3  # width of the ring around a cookie that tells floor and ceiling heights
+#: Half height of the slab around the section where a support's own spacing is measured.
+LOCAL_SLAB_M = 0.5
+#: A pier joined to a wall in more than this share of its height layers is a wall edge, a
+#: column so joined is an engaged column.
+MAX_ATTACHED_SHARE = 0.5
+
+
+def cookies(
+    p: Array, shapes: list[dict], params: SupportParams
+) -> list[tuple[NDArray[np.intp], Array, Array]]:
+    """Points within buffer + ring of each shape: (indices, offset rho, angle) per shape.
+
+    A point near several shapes (twin columns on one plinth) goes to the one it is
+    closest to, relative to the buffers.  Uses a 2D cell index on the points near any
+    shape only, so the cost is one pass over the cloud plus a sort of a few %.
+    """
+    cell = 0.25
+    x0, y0 = float(p[:, 0].min()), float(p[:, 1].min())
+    ci = ((p[:, 0] - x0) * (1.0 / cell)).astype(np.int64)  # floor: values are >= 0
+    cj = ((p[:, 1] - y0) * (1.0 / cell)).astype(np.int64)
+    width = int(ci.max()) + 1
+    height = int(cj.max()) + 1
+    keys = cj * width + ci
+    del ci, cj
+    xy0 = np.array([x0, y0])
+    near = np.zeros((height, width), dtype=bool)
+    boxes = []
+    for sh in shapes:
+        reach = float(np.hypot(*sh["half"])) + sh["buffer"] + RING_M
+        lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
+        hi = np.minimum(
+            np.floor((sh["centre"] + reach - xy0) / cell).astype(int), [width - 1, height - 1]
+        )
+        near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
+        boxes.append((lo, hi))
+    cand = np.flatnonzero(near.ravel()[keys])
+    srt, ksorted = sort_order(keys[cand])
+    korder = cand[srt]
+    sid_l, idx_l, rho_l, ang_l = [], [], [], []
+    for sid, (sh, (lo, hi)) in enumerate(zip(shapes, boxes, strict=True)):
+        rows = np.arange(lo[1], hi[1] + 1) * width  # grid rows of one support
+        a = np.searchsorted(ksorted, rows + lo[0], side="left")
+        b = np.searchsorted(ksorted, rows + hi[0], side="right")
+        parts = [korder[i:j] for i, j in zip(a, b, strict=True)]
+        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
+        rho, ang = offset(np.take(p, idx, axis=0)[:, :2], sh)
+        keep = rho <= sh["buffer"] + RING_M
+        sid_l.append(np.full(keep.sum(), sid))
+        idx_l.append(idx[keep])
+        rho_l.append(rho[keep])
+        ang_l.append(ang[keep])
+    sid_all, idx_all = np.concatenate(sid_l), np.concatenate(idx_l)
+    rho_all, ang_all = np.concatenate(rho_l), np.concatenate(ang_l)
+    # a point in several cookies goes to the shape it is closest to (relative to the
+    # buffers); only those few points are sorted
+    shared = np.flatnonzero(np.bincount(idx_all, minlength=len(p))[idx_all] > 1)
+    keep = np.ones(len(idx_all), dtype=bool)
+    if len(shared):
+        bufs = np.array([sh["buffer"] for sh in shapes])
+        srt = shared[np.lexsort((rho_all[shared] / bufs[sid_all[shared]], idx_all[shared]))]
+        first = np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]
+        keep[srt[~first]] = False
+    sid_all, idx_all, rho_all, ang_all = sid_all[keep], idx_all[keep], rho_all[keep], ang_all[keep]
+    bounds = np.r_[0, np.cumsum(np.bincount(sid_all, minlength=len(shapes)))]
+    out = []
+    for sid in range(len(shapes)):  # still grouped by shape; each cookie in input order
+        sel = slice(bounds[sid], bounds[sid + 1])
+        srt, idx = sort_order(idx_all[sel])
+        out.append((idx, rho_all[sel][srt], ang_all[sel][srt]))
+    return out
+
+
+def floor_level(pts: Array, ring: NDArray[np.bool_], h_sec: float, z_min: float) -> float:
+    """Floor under a support: a low quantile (5 %) of the ring points below the section
+    (of all cookie points below it when the ring holds fewer than 10)."""
+    z = pts[:, 2]
+    below = z < h_sec
+    floor_pts = z[below & ring] if np.count_nonzero(below & ring) >= 10 else z[below]
+    return float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z_min
+
+
+def face_cover(
+    pts: Array,
+    z: Array,
+    front: Array,
+    rho: Array,
+    sh: dict,
+    sc: Scales,
+    floor_z: float,
+    top_z: float,
+) -> float:
+    """Share of the wall face beside an engaged column that holds points (0..1).
+
+    Cells of ``3 x spacing`` in (along the face, height) on both sides of the column,
+    from the floor to the top: a wall fills them, a fence or a rail does not.
+    """
+    c = max(0.05, 3.0 * sc.spacing)
+    width = sh["buffer"] + RING_M - 2 * sc.tol
+    on = (np.abs(front) <= max(sh["face_gap"], sc.tol)) & (rho > 2 * sc.tol)
+    on &= (z > floor_z) & (z < top_z)
+    if width <= 0 or top_z <= floor_z or not on.any():
+        return 0.0
+    t = np.array([-sh["normal"][1], sh["normal"][0]])
+    along = (pts[on, :2] - sh["centre"]) @ t
+    ia = np.floor((along + sh["radius"] + 2 * sc.tol + width) / c).astype(np.int64)
+    iz = np.floor((z[on] - floor_z) / c).astype(np.int64)
+    n_along = int(np.ceil((2 * (sh["radius"] + 2 * sc.tol + width)) / c))
+    occupied = len(np.unique(iz * (n_along + 1) + ia))
+    total = 2 * int(np.ceil(width / c)) * int(np.ceil((top_z - floor_z) / c))
+    return min(1.0, occupied / max(total, 1))
+
+
+def extract_support(
+    p: Array,
+    idx: NDArray[np.intp],
+    rho: Array,
+    ang: Array,
+    sh: dict,
+    params: SupportParams,
+    sc: Scales,
+    h_sec: float,
+    z_range: tuple[float, float],
+) -> tuple[NDArray[np.intp], Array, Array] | None:
+    """The points of one support inside its cookie (indices, offsets, coordinates), or
+    None if it is not one.
+
+    From the floor under it (off by the floor's own noise) up to the underside of what it
+    carries (:func:`~pyheracles.supports.profile.carried_surface`; the points above the
+    body, an attic, count too), within the reach of its own profile per height band
+    (:func:`~pyheracles.supports.profile.band_reach`), connected to its section island.  It must be
+    ``min_height_fraction`` of the floor-to-carried height tall, or, carrying nothing (a
+    broken column, a column under the open sky), ``min_free_height_m``.
+    """
+    pts = np.take(p, idx, axis=0)  # one gather of the cookie's points
+    ring = rho > sh["buffer"]
+    z = pts[:, 2]
+    floor_z = floor_level(pts, ring, h_sec, z_range[0])
+    cell = max(0.05, 3.0 * sc.spacing)
+    bounds = (0.01, 0.05)
+    ftol = params.floor_tolerance_m or surface_tolerance(
+        z[ring & (z < h_sec)], floor_z, cell, bounds
+    )
+    wall = np.zeros(len(z), dtype=bool)
+    front = None
+    if sh["class"] == "engaged_column":
+        front = pts[:, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
+        wall = front <= sh["face_gap"]  # 3 sigma of the wall face off the face
+    free = np.flatnonzero(~wall)
+    top_z, carried_free = carried_surface(
+        pts[free, :2], z[free], rho[free], sh["centre"], sh["buffer"], RING_M, sc,
+        h_sec + sc.thickness / 2,
+    )  # fmt: skip
+    carried = np.zeros(len(z), dtype=bool)
+    carried[free[carried_free]] = True
+    ctol = 0.0
+    if np.isfinite(top_z):
+        ctol = params.ceiling_tolerance_m or surface_tolerance(
+            z[carried & ring], top_z, cell, bounds
+        )
+    if front is not None:
+        # an engaged column stands in a wall: the face must rise with it (a fence rail or
+        # a bench touching a one-sided scanned column is no wall)
+        top = top_z if np.isfinite(top_z) else z_range[1]
+        if face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5:
+            sh["class"] = "column"
+            wall[:] = False
+    inside = ~ring & ~wall & (z > floor_z + ftol) & (z < top_z - ctol)
+    cidx, cpts = idx[inside], pts[inside]
+    if len(cidx) < params.min_points:
+        return None
+    # clutter: only what is within the reach of the support's own profile in its height
+    # band (a fence rail or a chair touching a column fills a few sectors of a band)
+    n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * sc.spacing)))
+    layer = max(0.05, 3.0 * sc.spacing)
+    r_in, a_in, z_in = rho[inside], ang[inside], cpts[:, 2]
+    radius = float(sh["radius"]) if sh["class"] != "pier" else 0.0
+    keep = r_in <= band_reach(r_in, a_in, z_in, layer, min(n_sec, 72), radius, sc.tol)
+    cidx, crho, cpts = cidx[keep], r_in[keep], cpts[keep]
+    if len(cidx) < params.min_points:
+        return None
+    # final clustering: keep what is connected to the section island, at the support's
+    # own point spacing (a column far from the scanners is crossed by scan lines further
+    # apart than the cloud's median spacing: at that spacing it falls into pieces)
+    near_sec = np.abs(cpts[:, 2] - h_sec) <= LOCAL_SLAB_M  # the spacing where it was cut
+    gap = local_spacing(cpts[near_sec] if np.count_nonzero(near_sec) >= 50 else cpts)
+    lab = voxel_clusters(cpts, max(0.03, 3.0 * sc.spacing, 3.0 * gap), 1)
+    in_sec = np.abs(cpts[:, 2] - h_sec) <= sc.thickness / 2
+    good = np.unique(lab[in_sec & (lab > 0)])
+    if len(good) == 0:
+        return None
+    conn = np.isin(lab, good)
+    cidx, crho, cpts = cidx[conn], crho[conn], cpts[conn]
+    height = float(np.ptp(cpts[:, 2]))
+    if sh["class"] in ("pier", "column"):
+        # joined to a wall over most of its height: a pier is a wall edge (a jamb, a
+        # reveal, a ruined wall), a column is engaged in the wall (whose junction with
+        # it was in the shadow at the section)
+        lo, hi = float(cpts[:, 2].min()) + cell, float(cpts[:, 2].max()) - cell
+        share = attached_share(
+            pts[free, :2], z[free], rho[free], sh["centre"], sh["buffer"], RING_M, sc, (lo, hi)
+        )
+        if share > MAX_ATTACHED_SHARE and sh["class"] == "pier":
+            sh["wall_edge"] = True
+            return None
+        if share > MAX_ATTACHED_SHARE:
+            sh["class"] = "engaged_column"
+        elif sh["class"] == "column":
+            mine = np.zeros(len(z), dtype=bool)
+            mine[np.searchsorted(idx, cidx)] = True
+            face = wall_beside(
+                pts[~mine, :2], z[~mine], rho[~mine], sh["centre"], sh["radius"], sc,
+                (0.5 * (lo + hi), hi),  # the upper half: a fence or a bench stays low
+            )  # fmt: skip
+            if face is not None:
+                sh["class"], sh["normal"], sh["d"] = "engaged_column", face[0], face[1]
+    if np.isfinite(top_z):
+        need = params.min_height_fraction * (top_z - floor_z)
+    else:  # carries nothing: a broken column or one under the open sky
+        need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
+    if height < need:
+        return None  # a chair, a sign board, a fence post: not a support
+    return cidx, crho, cpts
+
+
+def local_spacing(pts: Array, sample: int = 2000) -> float:
+    """Scan-line gap of a support's own points (metres): the median distance to the
+    fourth nearest neighbour (on a regular grid that is the spacing; on scan lines far
+    apart, dense along each line, it follows the gap between the lines, which the nearest
+    neighbour does not see), capped at 5 cm (sparser, a support's points are no
+    surface)."""
+    if len(pts) < 5:
+        return 0.0
+    q = pts[np.linspace(0, len(pts) - 1, min(len(pts), sample)).astype(np.intp)]
+    d, _ = cKDTree(pts).query(q, k=5)
+    return float(min(np.median(d[:, 4]), 0.05))
+
+
+def offset(xy: Array, sh: dict) -> tuple[Array, Array]:
+    """Offset of points from a support's section shape (metres, >0 outside) and angle."""
+    q = xy - sh["centre"]
+    if sh["class"] in ("column", "engaged_column"):
+        return np.hypot(q[:, 0], q[:, 1]) - sh["radius"], np.arctan2(q[:, 1], q[:, 0])
+    c, s = np.cos(sh["angle"]), np.sin(sh["angle"])
+    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    a, b = sh["half"]
+    return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)

@@ -1,0 +1,289 @@
+"""The support detection: section height, islands, shapes, cookie-cutter, primitives."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.errors import InputError
+from pyheracles.geometry.sections import robust_floor, sort_order
+from pyheracles.resources import check_spread
+from pyheracles.supports.cookies import cookies, extract_support
+from pyheracles.supports.core import (
+    MAX_SECTION_SHARE,
+    Array,
+    Island,
+    Scales,
+    SupportParams,
+    SupportResult,
+    empty_table,
+    estimate_spacing,
+    one_blas_thread,
+    scales,
+)
+from pyheracles.supports.height import choose_height
+from pyheracles.supports.piers import wall_fragment
+from pyheracles.supports.primitives import dedupe, describe, implausible
+from pyheracles.supports.rings import detached_half_column, engaged_on_wall
+from pyheracles.supports.sections import section_islands
+
+# ------------------------------------------------------------------------------ main
+#: The lower section (supports ending below the automatic one) lies this many times
+#: ``min_free_height_m`` above the floor: every support that counts crosses it.
+LOW_SECTION_FACTOR = 0.8
+
+
+def detect_supports(
+    xyz: Array,
+    params: SupportParams | None = None,
+    *,
+    spacing_m: float | None = None,
+    z_order: NDArray[np.intp] | None = None,
+    z_sorted: Array | None = None,
+    source: str | None = None,
+) -> SupportResult:
+    """Find columns, piers and engaged columns in a levelled body cloud.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` levelled coordinates of the building body, metres (z up).  Run
+        :func:`pyheracles.building.attic_split` first to remove the attic.
+    params
+        Detection parameters (automatic where ``None``).
+    spacing_m
+        Known point spacing, metres; estimated when omitted.
+    z_order, z_sorted
+        ``argsort`` of ``xyz[:, 2]`` and ``xyz[z_order, 2]`` when the caller has them
+        (saves a sort).
+    source
+        File name for error messages.
+
+    Returns
+    -------
+    SupportResult
+        Per-point support ids aligned with ``xyz`` and the supports table.  No
+        supports, with a note saying why, when the cloud is too sparse for sections
+        (the slab that keeps an outline in one piece would be thicker than half the
+        body).  Candidates whose fitted primitive does not lie within their points,
+        and pier-like pieces of walls, are left in the body (counted in the notes).
+
+    Raises
+    ------
+    InputError
+        NaN coordinates, fewer than ``params.min_points`` points, all points at one
+        location, on one vertical line or at one height.
+
+    Examples
+    --------
+    >>> from pyheracles.synthetic.buildings import building_scene
+    >>> scene = building_scene("hall", spacing_m=0.06, rng=0)
+    >>> found = detect_supports(scene.xyz)
+    >>> found.objects["class"].value_counts().to_dict()
+    {'engaged_column': 8, 'column': 8}
+    """
+    params = params or SupportParams()
+    p = np.asarray(xyz, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InputError(f"coordinates must have shape (N, 3), got {p.shape}", path=source)
+    if not np.isfinite(p).all():
+        raise InputError("the body has NaN or infinite coordinates", path=source,
+                         hint="remove those points first")  # fmt: skip
+    check_spread(p, step="supports", min_points=params.min_points, path=source, need_z=True)
+    with one_blas_thread():
+        return detect_supports_checked(p, params, spacing_m, z_order, z_sorted)
+
+
+def detect_supports_checked(
+    xyz: Array,
+    params: SupportParams | None,
+    spacing_m: float | None,
+    z_order: NDArray[np.intp] | None,
+    z_sorted: Array | None,
+) -> SupportResult:
+    """:func:`detect_supports` on input already checked (finite, enough points and spread:
+    :func:`pyheracles.building.segment_building` checks the whole cloud once).
+
+    ``z_order`` may index only part of ``xyz`` (the body below an attic limit): the
+    section height and the islands are then searched in that part, while the supports
+    are cut out of all of ``xyz`` (each up to what it carries)."""
+    params = params or SupportParams()
+    rng = np.random.default_rng(params.seed)
+    p = np.asarray(xyz, dtype=np.float64)
+    n = len(p)
+    empty = SupportResult(np.zeros(n, dtype=np.int32), empty_table(), float("nan"), float("nan"))
+    if n < params.min_points:  # a body left with too few points (checked input has more)
+        return replace(empty, notes=("too few points for a support search",))
+    if z_order is None:
+        order, z_sorted = sort_order(p[:, 2])
+    else:
+        order = np.asarray(z_order)
+        z_sorted = p[:, 2][order] if z_sorted is None else np.asarray(z_sorted)
+    spacing = spacing_m if spacing_m is not None else estimate_spacing(p, z_sorted, rng)
+    sc = scales(spacing, params)
+    # the floor, not the lowest point: outliers below it moved the section search down
+    z0, z1 = robust_floor(z_sorted), float(z_sorted[-1])
+    if params.section_thickness_m is None and sc.thickness > MAX_SECTION_SHARE * (z1 - z0):
+        # a slab that thick from mid-height reaches floor and ceiling: it is no section,
+        # and its islands are whatever the walls' points project to (pieces of walls)
+        return SupportResult(
+            empty.instance, empty.objects, float("nan"), spacing, [],
+            (f"the cloud is too sparse for a support search: at {spacing:.2f} m point "
+             f"spacing a section must be {sc.thickness:.1f} m thick to keep a support's "
+             f"outline in one piece, more than half the body height ({z1 - z0:.1f} m); "
+             "supports need a denser (terrestrial or close-range) scan",),
+        )  # fmt: skip
+
+    # 1. section height: given, or where support islands are most numerous and stable
+    scores: list[tuple[float, int]] = []
+    if params.section_height_m is not None:
+        h_sec = z0 + params.section_height_m
+    else:
+        lo, hi = z0 + 0.25 * (z1 - z0), z0 + 0.85 * (z1 - z0)
+        h_sec, scores = choose_height(p, order, z_sorted, params, sc, lo, hi)
+    # 2. islands of the section, and the support shapes they give
+    s, e = np.searchsorted(z_sorted, [h_sec - sc.thickness / 2, h_sec + sc.thickness / 2])
+    sec_idx = order[s:e]
+    islands = section_islands(p[sec_idx, :2], params, sc.distance)
+    at = f"{h_sec - z0:.2f} m above the floor"
+    notes: list[str] = [] if len(sec_idx) else [f"the section {at} is empty"]
+    shapes, fragments = support_shapes(p[sec_idx, :2], islands, params, sc, rng)
+    if fragments:
+        notes.append(
+            f"{fragments} pier-like island{'s' if fragments > 1 else ''} of the section "
+            f"{'are pieces of walls' if fragments > 1 else 'is a piece of a wall'} (the wall "
+            "goes on beside it): not supports"
+        )
+    # 2b. a lower section for the supports that end below the first one (broken columns,
+    # stumps of a ruin): at 0.8 x min_free_height_m above the floor, new shapes only
+    h_low = z0 + LOW_SECTION_FACTOR * params.min_free_height_m
+    if params.section_height_m is None and h_sec - h_low >= params.persistence_m:
+        s2, e2 = np.searchsorted(z_sorted, [h_low - sc.thickness / 2, h_low + sc.thickness / 2])
+        low_idx = order[s2:e2]
+        low_islands = section_islands(p[low_idx, :2], params, sc.distance)
+        low_shapes, _ = support_shapes(p[low_idx, :2], low_islands, params, sc, rng)
+        for sh in low_shapes:
+            sh["h_sec"] = h_low
+        shapes = dedupe(shapes + low_shapes)
+    if not shapes:
+        notes.append(
+            f"no support found in the section {at} "
+            f"({sum(i.kind == 'wall' for i in islands)} wall islands, "
+            f"{sum(i.kind == 'noise' for i in islands)} noise islands)"
+        )
+        return SupportResult(
+            empty.instance, empty.objects, h_sec, spacing, islands, tuple(notes), scores
+        )
+    # 3. cookie-cutter: the points around each shape, overlaps to the nearest shape
+    cut = cookies(p, shapes, params)
+    # 4. per support: floor and ceiling off, clutter off, final clustering, primitive
+    instance = np.zeros(n, dtype=np.int32)
+    rows = []
+    rejected: list[str] = []
+    for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
+        h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
+        kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1))
+        if kept is None:
+            continue
+        cidx, crho, cpts = kept
+        row = describe(cpts, crho, sh, sc.tol)
+        if sh["class"] != "pier" and not (
+            abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
+        ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
+            notes.append(
+                f"a round candidate of radius {sh['radius']:.2f} m ({len(cidx)} points) "
+                "was rejected: its cylinder fit disagrees with its section"
+            )
+            continue
+        why = implausible(row, cpts, sc)
+        if why:  # a primitive must lie within its points: they go back to the body
+            rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
+            continue
+        rows.append(row)
+        instance[cidx] = len(rows)
+    if rejected:
+        notes.append(
+            f"{len(rejected)} support candidate{'s' if len(rejected) > 1 else ''} rejected, "
+            f"the fitted primitive not within the points (they stay in the body): "
+            + "; ".join(rejected[:5])
+            + (f"; ... {len(rejected) - 5} more" if len(rejected) > 5 else "")
+        )
+    edges = sum(1 for sh in shapes if sh.get("wall_edge"))
+    if edges:
+        notes.append(
+            f"{edges} pier candidate{'s are wall edges' if edges > 1 else ' is a wall edge'} "
+            "(joined to a wall in most of the height: jambs, reveals): not supports"
+        )
+    objects = pd.DataFrame(rows) if rows else empty_table()
+    if len(objects):
+        objects.insert(0, "instance", np.arange(1, len(objects) + 1, dtype=np.int32))
+    if not rows:
+        notes.append("support candidates were found in the section but none spans the body height")
+    return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+def support_shapes(
+    xy: Array,
+    islands: list[Island],
+    params: SupportParams,
+    sc: Scales,
+    rng: np.random.Generator,
+) -> tuple[list[dict], int]:
+    """Section shapes of the supports: column / pier islands, half-columns on walls.
+
+    Also returns the number of pier islands left out as pieces of walls
+    (:func:`wall_fragment`).
+    """
+    shapes: list[dict] = []
+    wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
+    wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
+    section_tree: cKDTree | None = None
+    fragments = 0
+    for isl in islands:
+        if isl.kind == "pier":
+            section_tree = section_tree if section_tree is not None else cKDTree(xy)
+            if wall_fragment(xy, isl, section_tree, sc.distance):
+                fragments += 1
+                continue
+        if isl.kind == "column" and wall_tree is not None:
+            eng = detached_half_column(xy[isl.index], isl, wall_tree, sc.distance)
+            if eng is not None:
+                shapes.append(eng)
+                continue
+        if isl.kind in ("column", "pier"):
+            shapes.append(
+                {
+                    "class": isl.kind,
+                    "centre": isl.center,
+                    "radius": isl.radius,
+                    "half": isl.size / 2,
+                    "angle": isl.angle,
+                    "circularity": isl.circularity,
+                }
+            )
+        elif isl.kind == "wall" and params.engaged:
+            for c, r, nrm, d, face_rms in engaged_on_wall(
+                xy[isl.index], params, sc.tol, sc.distance, rng
+            ):
+                shapes.append(
+                    {
+                        "class": "engaged_column",
+                        "centre": c,
+                        "radius": r,
+                        "half": np.array([r, r]),
+                        "angle": 0.0,
+                        "normal": nrm,
+                        "d": d,
+                        "face_gap": max(0.01, 3 * face_rms),
+                        "circularity": float("nan"),
+                    }
+                )
+    shapes = dedupe(shapes)
+    for sh in shapes:
+        frac = params.pier_buffer_fraction if sh["class"] == "pier" else params.buffer_fraction
+        sh["buffer"] = max(params.buffer_min_m, frac * float(np.max(sh["half"])))
+    return shapes, fragments

@@ -1,0 +1,184 @@
+"""Automatic section height: persistent support islands on a cell grid of many slabs."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from pyheracles.segment.euclidean import relabel_by_size
+from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.sections import island_kind
+
+# The 12 "forward" offsets of the 5 x 5 cell neighbourhood: with cells of half the
+# clustering distance, only these cells can hold points within that distance.
+LINKS = tuple((di, dj) for di in range(3) for dj in range(-2, 3) if (di, dj) > (0, 0))
+
+
+DENSE_CELLS = 8_000_000  # larger grids use a sort per slab instead of a dense scatter
+
+
+class SlabGrid:
+    """Occupied square cells of horizontal slabs, for the section height search.
+
+    The raster stand-in for :func:`section_islands` ``(with_shapes=False)`` on many
+    slabs: each slab is reduced to its occupied cells of side ``distance / 2`` (as a
+    thinning would), each cell is represented by the centroid of its points, cells whose
+    centroids are within ``distance`` are linked, and each island is described by the
+    principal-axis extents of its cells.  Hand-written because the KD-tree pairs of every
+    candidate slab cost most of the height search, while a few thousand occupied cells
+    per slab link in milliseconds by cell-key look-ups; the final section is still
+    clustered exactly (:func:`section_islands`).
+    """
+
+    def __init__(self, xyz: Array, idx: NDArray[np.intp], cell: float) -> None:
+        self.x = xyz[:, 0][idx] if len(idx) else np.zeros(0)
+        self.y = xyz[:, 1][idx] if len(idx) else np.zeros(0)
+        self.cell = cell
+        self.ny, self.ncells = 1, 0
+        self.key = np.zeros(0, dtype=np.int64)
+        if len(idx):
+            x0, y0 = float(self.x.min()), float(self.y.min())
+            # floor (values >= 0), plus a margin of two empty cells on every side: the
+            # neighbours of an occupied cell are always inside the grid, never wrapped
+            ci = ((self.x - x0) * (1.0 / cell)).astype(np.int64) + 2
+            cj = ((self.y - y0) * (1.0 / cell)).astype(np.int64) + 2
+            self.ny = int(cj.max()) + 3
+            self.ncells = (int(ci.max()) + 3) * self.ny
+            self.key = ci * self.ny + cj
+        self.dense = 0 < self.ncells <= DENSE_CELLS
+        if self.dense:  # a cell -> occupied-cell-number table, reset after each slab
+            self.ids = np.full(self.ncells, -1, dtype=np.int32)
+
+    def _cells(self, k: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Sorted occupied cell keys of points with keys ``k`` and each point's cell number."""
+        if not self.dense:
+            cells, inv = np.unique(k, return_inverse=True)
+            return cells, inv.ravel()
+        self.ids[k] = 0
+        cells = np.flatnonzero(self.ids == 0)
+        self.ids[cells] = np.arange(len(cells))
+        return cells, self.ids[k]
+
+    def _lookup(self, cells: NDArray[np.int64], di: int, dj: int) -> NDArray[np.int64]:
+        """Number of the occupied cell at offset ``(di, dj)`` of each cell, -1 if none."""
+        nb = cells + (di * self.ny + dj)
+        if self.dense:
+            return self.ids[nb]
+        pos = np.minimum(np.searchsorted(cells, nb), len(cells) - 1)
+        pos[cells[pos] != nb] = -1
+        return pos
+
+    def support_islands(self, s: int, e: int, params: SupportParams) -> tuple[Array, Array]:
+        """Centres ``(K, 2)`` and lengths ``(K,)`` of the support islands of points ``s:e``."""
+        none = (np.zeros((0, 2)), np.zeros(0))
+        if e - s < params.min_points:
+            return none
+        cells, inv = self._cells(self.key[s:e])
+        m = len(cells)
+        n_in = np.bincount(inv, minlength=m)
+        px = np.bincount(inv, self.x[s:e], minlength=m) / n_in
+        py = np.bincount(inv, self.y[s:e], minlength=m) / n_in
+        src, dst = [], []
+        for di, dj in LINKS:  # 12 vectorised look-ups, not a loop over cells
+            pos = self._lookup(cells, di, dj)
+            hit = np.flatnonzero(pos >= 0)
+            # linked when the cells' centroids are within the clustering distance
+            d2 = (px[hit] - px[pos[hit]]) ** 2 + (py[hit] - py[pos[hit]]) ** 2
+            close = d2 <= (2 * self.cell) ** 2
+            src.append(hit[close])
+            dst.append(pos[hit][close])
+        if self.dense:
+            self.ids[cells] = -1
+        a, b = np.concatenate(src), np.concatenate(dst)
+        graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(m, m))
+        lab = relabel_by_size(connected_components(graph, directed=False)[1], params.min_points)
+        keep = lab > 0
+        if not keep.any():
+            return none
+        lab, px, py = lab[keep] - 1, px[keep], py[keep]
+        cnt = np.bincount(lab).astype(np.float64)
+        mx, my = np.bincount(lab, px) / cnt, np.bincount(lab, py) / cnt
+        dx, dy = px - mx[lab], py - my[lab]
+        sxx, syy = np.bincount(lab, dx * dx), np.bincount(lab, dy * dy)
+        sxy = np.bincount(lab, dx * dy)
+        theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # major principal axis
+        cos, sin = np.cos(theta)[lab], np.sin(theta)[lab]
+        u, v = dx * cos + dy * sin, dy * cos - dx * sin
+        k = len(cnt)
+        ext = []
+        for w in (u, v):
+            hi = np.full(k, -np.inf)
+            lo = np.full(k, np.inf)
+            np.maximum.at(hi, lab, w)
+            np.minimum.at(lo, lab, w)
+            ext.append(hi - lo)
+        length, width = ext
+        sup = island_kind(length, width, params) == "support"
+        return np.c_[mx, my][sup], length[sup]
+
+
+def choose_height(
+    xyz: Array,
+    order: NDArray[np.intp],
+    z_sorted: Array,
+    params: SupportParams,
+    sc: Scales,
+    z_lo: float,
+    z_hi: float,
+) -> tuple[float, list[tuple[float, int]]]:
+    """Automatic section height: middle of the longest run with the most persistent islands.
+
+    An island is persistent at a height when an island of about the same size is found at
+    the same place ``persistence_m`` above and below.
+    """
+    thickness, distance = sc.thickness, sc.distance
+    k_off = max(1, round(params.persistence_m / params.candidate_step_m))
+    step = params.candidate_step_m
+    cands = np.arange(z_lo - k_off * step, z_hi + k_off * step + 1e-9, step)
+    if len(cands) == 0:
+        return (z_lo + z_hi) / 2, []
+    # the points of all candidate slabs, in z order: one gather, then contiguous slices
+    s0, e0 = np.searchsorted(z_sorted, [cands[0] - thickness / 2, cands[-1] + thickness / 2])
+    grid = SlabGrid(xyz, order[s0:e0], distance / 2)
+    centres: list[Array] = []
+    sizes: list[Array] = []
+    for h in cands:  # loop over candidate heights
+        s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2]) - s0
+        c, length = grid.support_islands(max(int(s), 0), max(int(e), 0), params)
+        centres.append(c)
+        sizes.append(length)
+    trees = [cKDTree(c) if len(c) else None for c in centres]
+    score = np.zeros(len(cands), dtype=int)
+    for k, c in enumerate(centres):
+        if not len(c):
+            continue
+        ok = np.ones(len(c), dtype=bool)
+        for j in (k - k_off, k + k_off):
+            if not 0 <= j < len(cands):
+                ok[:] = False  # persistence cannot be checked at the ends of the range
+            else:
+                if trees[j] is None:
+                    ok[:] = False
+                else:
+                    # same place and same size: a vault or a capital widens with height
+                    d, nb = trees[j].query(c)
+                    same = np.abs(sizes[j][np.minimum(nb, len(sizes[j]) - 1)] - sizes[k])
+                    ok &= (d <= 0.15) & (same <= 0.2 * sizes[k] + 2 * distance)
+        score[k] = int(ok.sum())
+    # The highest island count that holds over a run of at least min_run heights (a
+    # single height with one island more is clutter, not a better section); the middle
+    # of the longest such run.
+    min_run = max(1, min(3, int(np.count_nonzero(score == score.max()) > 0) * 3))
+    for level in range(int(score.max()), -1, -1):
+        is_best = np.r_[False, score >= level, False]
+        edges = np.flatnonzero(np.diff(is_best.astype(int)))
+        starts, ends = edges[::2], edges[1::2]
+        r = int(np.argmax(ends - starts))
+        if ends[r] - starts[r] >= min_run or level == 0:
+            break
+    mid = (starts[r] + ends[r] - 1) / 2
+    height = float(np.interp(mid, np.arange(len(cands)), cands))
+    return height, list(zip(cands.tolist(), score.tolist(), strict=True))

@@ -1,0 +1,305 @@
+"""A support's own measured profile: what it stands on, what it carries, how far it reaches.
+
+Three measurements on the points of one cookie (the points around one section shape,
+with their offset ``rho`` from that shape and their angle around it):
+
+* :func:`carried_surface` -- the lowest surface above the section that the support
+  carries: the first height layer in which one horizontally connected piece of points
+  runs from within the cookie's buffer out into the ring around it (an architrave, a
+  beam, a ceiling, the springing of a vault; the roof of a kiosk when no attic split
+  was made), unless the support's own surface goes on above it (eaves lower than the
+  column tops, a fence rail).  A broken column or one under the open sky carries
+  nothing.  This
+  replaces the attic limit and the body top as the top of a support: a support keeps
+  its full height up to what it carries, whatever an attic split said.
+* :func:`surface_tolerance` -- how far above a floor (below a ceiling) points still
+  belong to that surface: three robust standard deviations of its heights.
+* :func:`band_reach` -- per height layer, how far from the section shape the support
+  reaches: from the median over the angular sectors of the innermost offset (square
+  plinths and abaci are reached at their corners, a chair or a fence in a few sectors
+  does not move the median).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from pyheracles.supports.core import Array, Scales
+
+#: A carried surface must cover at least this many 10-degree sectors of the ring (a
+#: scaffold tube or a sign arm touching a column covers one; a beam end two and more).
+MIN_CARRIED_SECTORS = 2
+#: A support goes on above a surface when its own surface is found in one of this many
+#: layers above it.
+CONTINUE_LAYERS = 3
+#: A square part (plinth, abacus) reaches sqrt(2) times its face distance at its corners.
+CORNER_FACTOR = float(np.sqrt(2.0))
+
+
+def surface_tolerance(z: Array, level: float, cell: float, bounds: tuple[float, float]) -> float:
+    """Three robust standard deviations of the heights ``z`` within ``cell`` of ``level``,
+    clipped to ``bounds`` (metres)."""
+    near = z[np.abs(z - level) <= cell]
+    if len(near) < 10:
+        return bounds[1]
+    sigma = 1.4826 * float(np.median(np.abs(near - np.median(near))))
+    return float(np.clip(3.0 * sigma, *bounds))
+
+
+@dataclass(frozen=True)
+class LayerPieces:
+    """Horizontally connected pieces of a cookie's points, layer by layer.
+
+    Cells of ``cell`` metres (horizontal) by ``cell`` (height) from ``z0`` up; pieces are
+    8-connected components of occupied cells within one layer.  Per cell: ``layer``,
+    ``rmin`` (smallest offset), ``piece``; per piece: ``reach_in`` (smallest offset),
+    ``ring_sectors`` (10-degree sectors of the ring it covers); per point: ``cell_of``.
+    """
+
+    cell: float
+    z0: float
+    layer: NDArray[np.int64]
+    rmin: Array
+    piece: NDArray[np.intp]
+    reach_in: Array
+    ring_sectors: NDArray[np.int64]
+    cell_of: NDArray[np.intp]
+    point_layer: NDArray[np.int64]
+
+
+def layer_pieces(
+    xy: Array, z: Array, rho: Array, centre: Array, buffer: float, ring: float, cell: float
+) -> LayerPieces:
+    """:class:`LayerPieces` of cookie points (offsets ``rho`` from the section shape;
+    ring points beyond ``buffer + ring / 2`` count for ``ring_sectors``)."""
+    q = xy - centre
+    ij = np.floor(q / cell).astype(np.int64)
+    ij -= ij.min(axis=0) - 1  # a margin of one cell: neighbours never wrap
+    z0 = float(z.min())
+    k = np.floor((z - z0) / cell).astype(np.int64)
+    nj = int(ij[:, 1].max()) + 2
+    ni = int(ij[:, 0].max()) + 2
+    key = (k * ni + ij[:, 0]) * nj + ij[:, 1]
+    cells, inv = np.unique(key, return_inverse=True)
+    inv = inv.ravel()
+    m = len(cells)
+    rmin = np.full(m, np.inf)
+    np.minimum.at(rmin, inv, rho)
+    src, dst = [], []
+    for di, dj in ((0, 1), (1, -1), (1, 0), (1, 1)):  # 8-neighbours within one layer
+        nb = cells + di * nj + dj
+        pos = np.minimum(np.searchsorted(cells, nb), m - 1)
+        hit = cells[pos] == nb
+        src.append(np.flatnonzero(hit))
+        dst.append(pos[hit])
+    a, b = np.concatenate(src), np.concatenate(dst)
+    graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(m, m))
+    lab = connected_components(graph, directed=False)[1]
+    n_lab = int(lab.max()) + 1
+    reach_in = np.full(n_lab, np.inf)
+    np.minimum.at(reach_in, lab, rmin)
+    sec = np.floor((np.arctan2(q[:, 1], q[:, 0]) + np.pi) / (2 * np.pi) * 36).astype(np.int64)
+    out_pt = rho > buffer + 0.5 * ring
+    cover = np.zeros((n_lab, 36), dtype=bool)
+    cover[lab[inv[out_pt]], sec[out_pt] % 36] = True
+    return LayerPieces(cell, z0, cells // (ni * nj), rmin, lab, reach_in, cover.sum(axis=1), inv, k)
+
+
+def carried_surface(
+    xy: Array,
+    z: Array,
+    rho: Array,
+    centre: Array,
+    buffer: float,
+    ring: float,
+    sc: Scales,
+    h_from: float,
+) -> tuple[float, NDArray[np.bool_]]:
+    """Underside of the lowest surface a support carries above ``h_from`` (inf if none).
+
+    Parameters
+    ----------
+    xy, z, rho
+        Cookie points: horizontal coordinates, heights, offsets from the section shape
+        (metres, > 0 outside it).
+    centre
+        Centre of the section shape.
+    buffer, ring
+        The cookie's buffer and the width of the ring beyond it (metres).
+    sc
+        Lengths from the point spacing (cells of ``max(0.05, 3 x spacing)``).
+    h_from
+        Start of the search (the top of the section slab), metres.
+
+    Returns
+    -------
+    z_carried : float
+        Low quantile (2 %) of the heights of the carried piece's ring points in its
+        lowest layer, or ``inf``.
+    carried : (M,) bool
+        The points of the carried pieces (every layer), to be left out of the support.
+    """
+    carried = np.zeros(len(z), dtype=bool)
+    sel = np.flatnonzero(z > h_from)
+    if len(sel) < 10:
+        return np.inf, carried
+    lp = layer_pieces(xy[sel], z[sel], rho[sel], centre, buffer, ring, max(0.05, 3.0 * sc.spacing))
+    spanning = (lp.reach_in <= buffer) & (lp.ring_sectors >= MIN_CARRIED_SECTORS)
+    if not spanning.any():
+        return np.inf, carried
+    # A support passing through a surface (eaves hanging lower than the column tops, a
+    # fence rail, a gallery) goes on above it: pieces of its own surface (within tol of
+    # the section shape) that belong to no spanning piece, in the layers just above.
+    own = ~spanning[lp.piece] & (lp.rmin <= sc.tol)
+    own_layers = np.unique(lp.layer[own])
+    k_low = -1
+    for kc in np.unique(lp.layer[spanning[lp.piece]]):  # candidate layers, low to high
+        above = own_layers[(own_layers > kc) & (own_layers <= kc + CONTINUE_LAYERS)]
+        if len(above) == 0:
+            k_low = int(kc)
+            break
+    if k_low < 0:
+        return np.inf, carried
+    span_pt = spanning[lp.piece[lp.cell_of]] & (lp.point_layer >= k_low)
+    low = span_pt & (lp.point_layer == k_low) & (rho[sel] > buffer)
+    z_c = float(np.quantile(z[sel][low], 0.02)) if low.any() else lp.z0 + k_low * lp.cell
+    carried[sel[span_pt]] = True
+    return z_c, carried
+
+
+def attached_share(
+    xy: Array,
+    z: Array,
+    rho: Array,
+    centre: Array,
+    buffer: float,
+    ring: float,
+    sc: Scales,
+    z_range: tuple[float, float],
+) -> float:
+    """Share of the height layers in ``z_range`` in which a support is joined to something
+    that runs out through its ring (0..1).
+
+    A support stands free over most of its height; a door or window jamb, a reveal or a
+    piece of a ruined wall cut off in the section is a wall edge: in most layers the
+    wall runs on from its own surface (within ``2 x tol`` of the section shape) out
+    into the ring, in at least ``MIN_CARRIED_SECTORS`` sectors.  Floors, ceilings and
+    the clutter touching a column fill a few layers only.
+    """
+    sel = np.flatnonzero((z > z_range[0]) & (z < z_range[1]))
+    if len(sel) < 10 or z_range[1] <= z_range[0]:
+        return 0.0
+    lp = layer_pieces(xy[sel], z[sel], rho[sel], centre, buffer, ring, max(0.05, 3.0 * sc.spacing))
+    joined = (lp.reach_in <= 2.0 * sc.tol) & (lp.ring_sectors >= MIN_CARRIED_SECTORS)
+    n_layers = max(1, int(np.ceil((z_range[1] - z_range[0]) / lp.cell)))
+    return float(len(np.unique(lp.layer[joined[lp.piece]]))) / n_layers
+
+
+def band_reach(
+    rho: Array,
+    ang: Array,
+    z: Array,
+    layer: float,
+    sectors: int,
+    radius: float,
+    tol: float,
+) -> Array:
+    """Largest offset from the section shape kept in each point's height layer (metres).
+
+    Per layer, the innermost offset of every occupied angular sector (the largest of the
+    layer and its two neighbours); their median is the layer's face distance ``e``.  A
+    layer within ``tol`` of the section shape (``e <= tol``: the shaft) reaches
+    ``e + tol``; a wider one is a square part (plinth, base, abacus, impost) that reaches
+    ``CORNER_FACTOR`` times its face distance from the axis at its corners:
+    ``CORNER_FACTOR x (e + radius) - radius + tol`` (``radius`` 0 for offsets from a
+    rectangle).  The reach of a layer is the largest of its own and its two neighbours'
+    (a plinth's top face is reached from the plinth's sides below it).  A chair, a fence
+    or a sign touching a support fills a few sectors of a layer and does not move the
+    median.
+    """
+    if len(rho) == 0:
+        return np.zeros(0)
+    li = np.floor((z - z.min()) / layer).astype(np.intp)
+    si = np.floor((ang + np.pi) / (2 * np.pi) * sectors).astype(np.intp) % sectors
+    nl = int(li.max()) + 1
+    rmin = np.full((nl, sectors), np.inf)
+    np.minimum.at(rmin, (li, si), rho)
+    # per sector the largest innermost offset of the layer and its neighbours: the face of
+    # a plinth, not its top face blurred into the layer by the noise, sets a plinth layer
+    pad = np.full((1, sectors), -np.inf)
+    finite = np.where(np.isfinite(rmin), rmin, -np.inf)
+    near = np.maximum(np.maximum(finite, np.r_[finite[1:], pad]), np.r_[pad, finite[:-1]])
+    have = np.isfinite(near).any(axis=1)
+    e = np.zeros(nl)
+    if have.any():
+        e[have] = np.nanmedian(np.where(np.isfinite(near[have]), near[have], np.nan), axis=1)
+    e = np.maximum(e, 0.0)
+    square = CORNER_FACTOR * (e + radius) - radius + tol
+    reach = np.where(e <= tol, e + tol, square)
+    up = np.r_[reach[1:], -np.inf]
+    down = np.r_[-np.inf, reach[:-1]]
+    return np.maximum(np.maximum(reach, up), down)[li]
+
+
+#: A wall cell holds points in at least this share of a support's height layers.
+WALL_CELL_SHARE = 0.5
+
+
+def wall_beside(
+    xy: Array,
+    z: Array,
+    rho: Array,
+    centre: Array,
+    radius: float,
+    sc: Scales,
+    z_range: tuple[float, float],
+) -> tuple[Array, float] | None:
+    """The wall plane a column stands in, from the wall itself, not from a point count.
+
+    Cells of ``max(0.05, 3 x spacing)`` of the cookie's points that are not the column's
+    (offset from its circle ``rho`` beyond ``2 x tol`` plus a cell: its own surface and
+    noise are not a wall): a wall fills a cell over most of the height layers of
+    ``z_range`` (``WALL_CELL_SHARE``; the caller gives the upper half of the column), a
+    floor, a chair or a fence does not.  The wall cells must lie on one line (RMS within
+    a cell) of at least four cells, and the column's circle must reach that line (its
+    axis within ``radius + 2 x tol`` of it): the column is engaged in the wall even where
+    the junction is in the shadow.
+
+    Returns
+    -------
+    (normal, d) or None
+        Unit normal of the face pointing to the column's axis and the face offset
+        (``normal . x = d`` on the face).
+    """
+    c = max(0.05, 3.0 * sc.spacing)
+    sel = (z > z_range[0]) & (z < z_range[1]) & (rho > 2.0 * sc.tol + c)
+    n_layers = int(np.ceil((z_range[1] - z_range[0]) / c))
+    if np.count_nonzero(sel) < 20 or n_layers < 4:
+        return None
+    q = xy[sel] - centre
+    ij = np.floor(q / c).astype(np.int64)
+    ij -= ij.min(axis=0)
+    k = np.floor((z[sel] - z_range[0]) / c).astype(np.int64)
+    nj = int(ij[:, 1].max()) + 1
+    cell = ij[:, 0] * nj + ij[:, 1]
+    pairs = np.unique(cell * (n_layers + 1) + k)
+    cells, n_occ = np.unique(pairs // (n_layers + 1), return_counts=True)
+    wall = cells[n_occ >= WALL_CELL_SHARE * n_layers]
+    if len(wall) < 4:
+        return None
+    pts = np.c_[wall // nj, wall % nj].astype(np.float64) * c + c / 2
+    pts += np.floor(q.min(axis=0) / c) * c  # back to offsets from the centre
+    m = pts.mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov((pts - m).T))
+    n = vec[:, 0]
+    d = float(n @ m)
+    if np.sqrt(np.mean((pts @ n - d) ** 2)) > c or abs(d) > radius + 2.0 * sc.tol:
+        return None
+    if d > 0:  # the normal points from the face to the axis (the centre is the origin)
+        n, d = -n, -d
+    return n, d + float(n @ centre)
