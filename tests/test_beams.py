@@ -325,7 +325,11 @@ def test_cli_beams_writes_outputs(tmp_path, roof):
     src = tmp_path / "roof.laz"
     write_cloud(cloud, src)
     out = tmp_path / "beams"
-    assert main(["beams", str(src), "-o", str(out)]) == 0
+    assert main(["beams", str(src), "-o", str(out), "--ifc"]) == 0
+    import ifcopenshell
+
+    ifc = ifcopenshell.open(str(out / "model.ifc"))
+    assert len(ifc.by_type("IfcBeam")) + len(ifc.by_type("IfcMember")) == 15
     las = laspy.read(out / "segmented.laz")
     assert len(las.points) == int(sub.sum())
     table = pd.read_csv(out / "objects.csv")

@@ -98,6 +98,9 @@ def register(app: typer.Typer) -> None:
         no_picture: Annotated[
             bool, typer.Option("--no-picture", help="Do not draw beams.png.")
         ] = False,
+        ifc: Annotated[
+            bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")
+        ] = False,
         force: Annotated[
             bool, typer.Option("--force", help="Write into a non-empty output folder.")
         ] = False,
@@ -110,6 +113,7 @@ def register(app: typer.Typer) -> None:
             print_counts,
             print_objects,
             print_run_warnings,
+            write_model_ifc,
         )
         from pyheracles.io import read_cloud
         from pyheracles.io.results import write_segmentation
@@ -147,6 +151,9 @@ def register(app: typer.Typer) -> None:
                 )
                 if not no_picture:
                     paths["picture"] = plot_beams(cloud.xyz, result, stage / "beams.png")
+            if ifc:
+                with progress.stage("IFC model"):
+                    paths["ifc"] = write_model_ifc(stage)
             timings["write"] = time.perf_counter() - t
             counts = seg.counts()
             print_run_warnings(stage)
