@@ -834,6 +834,7 @@ def church_sweep_draw(seed: int, model: str = "rigid") -> dict:
             n_keypoints=list(tp.n_keypoints),
             n_putative=tp.n_putative,
             n_ransac_inliers=tp.n_ransac_inliers,
+            auto_details=tp.details,
             n_ties=len(tp.source),
             n_correct_ties=_correct_ties(sim, tp),
             tie_rms_3d_m=res.rms()["3d"],
@@ -880,15 +881,21 @@ def bench_church_sweep(n: int = 30, first_seed: int = 0, model: str = "rigid") -
     times) and a summary line: share of draws meeting every target, per-target pass
     shares, shares of flagged failures and of silent wrong transforms, the failure
     modes with their seeds, the worst draw.  Outlier points are not excluded: the
-    clouds go to the step code as they would from the files.
+    clouds go to the step code as they would from the files.  Sweeps run in parts
+    (``--first-seed``) are summarised together with ``--summarise part1.jsonl ...``.
     """
-    from collections import Counter
-
     rows = []
     for seed in range(first_seed, first_seed + n):  # one draw after the other
         rec = church_sweep_draw(seed, model)
         rows.append(rec)
         emit(dataset=f"church_seed{seed}", metric="church_sweep_draw", **rec)
+    church_sweep_summary(rows, first_seed, n, model)
+
+
+def church_sweep_summary(rows: list[dict], first_seed: int, n: int, model: str) -> None:
+    """The summary line of a church sweep from its per-draw records (see below)."""
+    from collections import Counter
+
     status = Counter(r["auto_status"] for r in rows)
     modes: dict[str, list[int]] = {}
     for r in rows:
@@ -1033,6 +1040,12 @@ def _parse_args(argv: list[str]):
     )
     ap.add_argument("--first-seed", type=int, default=0, metavar="S", help="first seed (0)")
     ap.add_argument(
+        "--summarise",
+        nargs="+",
+        metavar="JSONL",
+        help="print the sweep summary of the draw lines in these files (sweeps run in parts)",
+    )
+    ap.add_argument(
         "--model",
         default="rigid",
         choices=("rigid", "similarity"),
@@ -1053,7 +1066,19 @@ SECTIONS = {
 
 if __name__ == "__main__":
     args = _parse_args(sys.argv[1:])
-    if args.sweep is not None:
+    if args.summarise:
+        import json
+
+        recs = []
+        for path in args.summarise:
+            with open(path) as fh:
+                recs += [json.loads(x) for x in fh if '"church_sweep_draw"' in x]
+        recs.sort(key=lambda r: r["seed"])
+        for r in recs:
+            emit(**r)
+        seeds = [r["seed"] for r in recs]
+        church_sweep_summary(recs, min(seeds), max(seeds) - min(seeds) + 1, args.model)
+    elif args.sweep is not None:
         bench_church_sweep(args.sweep, args.first_seed, args.model)
     else:
         for name in args.sections or list(SECTIONS):

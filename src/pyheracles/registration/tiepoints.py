@@ -2,27 +2,25 @@
 
 The two clouds of a heritage building overlap only through its openings (thesis
 ch. 3, Murtiyoso 2020: 35 tie points from 24 openings, RMS 4.4 cm against 2.5 cm
-with manual tie points).  Pipeline, per cloud:
+with manual tie points).  Pipeline:
 
-1. **Panes** - sequential MSAC planes (:func:`~pyheracles.geometry.fitting.fit_plane_msac`),
-   each split into connected components (KD-tree pairs + sparse connected components);
-   a component is a pane when it is a filled rectangle of window size.
-2. **Keypoints** - the pane corners, refined as the intersection of the pane and the
-   two adjacent reveal planes (:func:`~pyheracles.registration.targets.measure_plane_corner`)
-   and moved by half the glass thickness onto the pane mid-plane, so that the same
-   physical point is found from both sides.
-3. **Descriptors** - FPFH (Rusu et al. 2009, 33 bins) and a spin image (Johnson &
-   Hebert 1999) around each corner, with normals oriented to the viewer side, plus
-   the pane geometry (width, height, which corner: bottom/top and left/right, the
-   latter mirrored between the outside and the inside view).
-4. **Matching** - reciprocal nearest neighbours in descriptor space among corners of
-   compatible panes (same corner label, width and height within a tolerance).
-5. **Robust rejection** - RANSAC on 3-correspondence samples (seeded), then the
-   modified Danish similarity on the consensus; flagged pairs are dropped.
+1. **Openings** (:func:`~pyheracles.registration.panes.detect_openings`) - wall faces
+   from a normal/offset histogram, enclosed holes of each face raster (cells from the
+   face's own spacing), a recess behind the face, the pane depth from the sparse
+   glass points or the end of the reveals, and the outline on the pane mid-plane
+   (glass thickness compensated) for any outline shape.
+2. **Matching** (:func:`~pyheracles.registration.pane_matching.match_openings`) -
+   size-compatible pairs, rigid-invariant consistency, greedy cliques, point-to-line
+   least squares on the mid-plane outlines with the pane depths, explicit refusal of
+   ambiguous (one-bay shifted) and mirrored solutions.
+3. **Tie points** - four outline points per matched opening in both frames (local
+   fit of that opening's outline and depth), then the robust similarity (modified
+   Danish method) and its report, as for manual tie points.
 
-Assumptions (documented limits): both clouds are metric (scale within a few per cent)
-and levelled (``up`` is the vertical in both), as TLS clouds and georeferenced
-photogrammetric clouds are; the glass thickness is known.
+Assumptions (documented limits): both clouds are metric and roughly levelled (``up``
+within a few degrees of the vertical) and the glass thickness is known.
+
+Descriptors for other keypoint pipelines (:func:`fpfh`, :func:`spin_images`) stay here.
 """
 
 from __future__ import annotations
@@ -33,25 +31,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
+from pyheracles import progress
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
-from pyheracles.geometry.fitting import MSACParams, fit_plane_msac, min_area_rectangle
-from pyheracles.geometry.neighbours import estimate_normals, point_spacing
+from pyheracles.registration.pane_matching import MatchParams, OpeningMatch, match_openings
+from pyheracles.registration.panes import Opening, PaneParams, detect_openings
 from pyheracles.registration.points import PointList
 from pyheracles.registration.similarity import (
     SimilarityParams,
     SimilarityResult,
     estimate_similarity,
 )
-from pyheracles.registration.targets import measure_plane_corner
 
 __all__ = [
-    "Keypoints",
     "TiePointParams",
     "TiePointResult",
     "detect_pane_corners",
@@ -67,64 +61,43 @@ class TiePointParams:
 
     Attributes
     ----------
-    plane_threshold_m
-        MSAC inlier distance for plane extraction.
-    max_planes
-        Planes extracted per cloud (walls, roof, ground first, then panes).
-    min_pane_side_m, max_pane_side_m
-        Accepted pane size (shorter and longer side of the rectangle).
-    min_fill
-        Fraction of the pane rectangle (5 cm cells) that must hold points.
     pane_thickness_m
-        Glass thickness (2 cm, issue 5); corners move by half of it onto the mid-plane.
-    corner_search_m
-        Neighbourhood for the three-plane corner refinement.
-    fpfh_radius_m, spin_radius_m
-        Descriptor support radii.
-    size_tolerance_m
-        Largest width/height difference of two panes that may match.
-    inlier_m
-        RANSAC inlier distance between matched corners after the transform.
-    ransac_trials
-        Number of 3-correspondence RANSAC samples.
+        Glass thickness (2 cm default, issue 5): outlines are taken on the mid-plane.
+    panes
+        Opening detection (:class:`~pyheracles.registration.panes.PaneParams`); its
+        ``pane_thickness_m`` and ``up`` are replaced by the fields here.
+    matching
+        Opening matching (:class:`~pyheracles.registration.pane_matching.MatchParams`);
+        its ``opposite_sides`` is replaced by the field here.
+    max_tie_rms_m
+        Largest 3D RMS of the tie points about the final similarity: beyond it the
+        openings disagree and no transform is returned.
     up
         Vertical direction in both clouds.
     opposite_sides
         ``True`` when the clouds see the panes from opposite sides (exterior vs
-        interior): left and right corners swap between the views.
+        interior).
     seed
-        Seed of MSAC and RANSAC.
+        Kept for reproducible extensions; the pipeline itself draws no random numbers.
     """
 
-    plane_threshold_m: float = 0.012
-    max_planes: int = 24
-    min_pane_side_m: float = 0.5
-    max_pane_side_m: float = 5.0
-    min_fill: float = 0.8
     pane_thickness_m: float = 0.02
-    corner_search_m: float = 0.25
-    fpfh_radius_m: float = 0.15
-    spin_radius_m: float = 0.8
-    size_tolerance_m: float = 0.08
-    inlier_m: float = 0.08
-    ransac_trials: int = 2000
+    panes: PaneParams = field(default_factory=PaneParams)
+    matching: MatchParams = field(default_factory=MatchParams)
+    max_tie_rms_m: float = 0.02
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     opposite_sides: bool = True
     seed: int = 0
 
+    def pane_params(self) -> PaneParams:
+        from dataclasses import replace
 
-@dataclass(frozen=True, eq=False)
-class Keypoints:
-    """Pane corners of one cloud (cloud world frame) with their descriptors."""
+        return replace(self.panes, pane_thickness_m=self.pane_thickness_m, up=self.up)
 
-    xyz: NDArray[np.float64]  # (K, 3) on the pane mid-plane
-    pane: NDArray[np.int_]  # (K,) pane index
-    label: NDArray[np.int_]  # (K,) 0 bottom-left, 1 bottom-right, 2 top-right, 3 top-left
-    size: NDArray[np.float64]  # (K, 2) pane width (horizontal) and height
-    normal: NDArray[np.float64]  # (K, 3) pane normal towards the viewer
-    fpfh: NDArray[np.float64]  # (K, 33)
-    spin: NDArray[np.float64]  # (K, n_bins)
-    panes: pd.DataFrame
+    def match_params(self) -> MatchParams:
+        from dataclasses import replace
+
+        return replace(self.matching, opposite_sides=self.opposite_sides, up=self.up)
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,157 +120,85 @@ class TiePointResult:
             "n_keypoints_source": self.n_keypoints[0],
             "n_keypoints_target": self.n_keypoints[1],
             "n_putative_matches": self.n_putative,
-            "n_ransac_inliers": self.n_ransac_inliers,
+            "n_consistent_openings": self.n_ransac_inliers,
             "n_tie_points": len(self.source),
             "similarity": self.similarity.to_dict(),
             **self.details,
         }
 
 
-# ----------------------------------------------------------------------------- panes
-def _components(xyz: NDArray[np.float64], radius: float) -> NDArray[np.int_]:
-    tree = cKDTree(xyz)
-    pairs = tree.query_pairs(radius, output_type="ndarray")
-    n = len(xyz)
-    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, lab = connected_components(g, directed=False)
-    return lab
-
-
-def _plane_basis(normal: NDArray[np.float64], up: NDArray[np.float64]):
-    h = np.cross(up, normal)
-    if np.linalg.norm(h) < 1e-6:  # horizontal pane (skylight): any basis
-        h = np.cross([1.0, 0, 0], normal)
-    h /= np.linalg.norm(h)
-    v = np.cross(normal, h)
-    return h, v
-
-
-def _find_panes(
-    xyz: NDArray[np.float64], tree: cKDTree, spacing: float, p: TiePointParams
-) -> list[dict[str, Any]]:
-    rng = np.random.default_rng(p.seed)
-    remaining = np.ones(len(xyz), bool)
-    up = np.asarray(p.up, float)
-    panes = []
-    min_pts = max(int(0.6 * p.min_pane_side_m**2 / spacing**2), 30)
-    for _ in range(p.max_planes):
-        idx = np.flatnonzero(remaining)
-        if len(idx) < min_pts:
-            break
-        fit = fit_plane_msac(
-            xyz[idx],
-            MSACParams(threshold=p.plane_threshold_m, max_trials=400, min_inlier_fraction=0.0),
-            rng=rng,
+# ----------------------------------------------------------------------------- openings
+def _openings(cloud: PointCloud, p: TiePointParams, what: str) -> list[Opening]:
+    cloud.validate(what=what)
+    with progress.stage(f"glazed openings of {cloud.source or what}"):
+        ops = detect_openings(cloud.xyz, p.pane_params())
+    if not ops:
+        raise InputError(
+            "no glazed window openings found",
+            path=cloud.source,
+            hint="the automatic tie points need glazed openings seen from both sides; "
+            "use --tiepoints with manual tie points instead",
         )
-        if not fit or fit.inliers.sum() < min_pts:
-            break
-        inl = idx[fit.inliers]
-        remaining[inl] = False
-        lab = _components(xyz[inl], 3.0 * spacing)
-        counts = np.bincount(lab)
-        for c in np.flatnonzero(counts >= min_pts):  # components of one plane (tens)
-            pts = xyz[inl[lab == c]]
-            h, v = _plane_basis(fit.normal, up)
-            uv = np.column_stack([pts @ h, pts @ v])
-            lo, hi = uv.min(axis=0), uv.max(axis=0)
-            size = hi - lo
-            if size.min() < p.min_pane_side_m or size.max() > p.max_pane_side_m:
-                continue
-            cells = np.floor((uv - lo) / 0.05).astype(int)
-            shape = np.maximum(np.ceil(size / 0.05).astype(int), 1)
-            occ = len(np.unique(cells[:, 0] * (shape[1] + 1) + cells[:, 1]))
-            if occ / (shape[0] * shape[1]) < p.min_fill:
-                continue
-            _centre, angle, _ = min_area_rectangle(uv)
-            if abs(np.sin(2 * angle)) > 0.2:  # not aligned with the vertical: not a window
-                continue
-            # viewer side: reveals stand out of the pane on the side of the scanner
-            centre3 = fit.normal * fit.d + h * (lo[0] + hi[0]) / 2 + v * (lo[1] + hi[1]) / 2
-            ring = np.asarray(
-                tree.query_ball_point(centre3, 0.5 * np.hypot(*size) + 0.1), dtype=int
-            )
-            off = (xyz[ring] - centre3) @ fit.normal
-            off = off[np.abs(off) > 3 * p.plane_threshold_m]
-            if len(off) < 10:
-                continue
-            side = 1.0 if np.median(off) > 0 else -1.0
-            panes.append(
-                {
-                    "normal_view": side * fit.normal,
-                    "normal": fit.normal,
-                    "plane_d": fit.d,
-                    "h": h,
-                    "v": v,
-                    "lo": lo,
-                    "hi": hi,
-                    "n_points": len(pts),
-                }
-            )
-    return panes
+    return ops
+
+
+def _outline_points(o: Opening) -> NDArray[np.float64]:
+    """Left, right, bottom and top points of an opening's mid-plane outline."""
+    rel = o.outline - o.centre
+    u, v = rel @ o.h, rel @ o.v
+    out = []
+    for coord, other in ((u, v), (v, u)):  # the extremes along h, then along v
+        lo, hi = np.percentile(coord, [1, 99])
+        for val in (lo, hi):
+            band = np.abs(coord - val) < 0.02
+            mid = float(np.median(other[band])) if band.any() else 0.0
+            out.append((val, mid) if coord is u else (mid, val))
+    return np.array([o.centre + a * o.h + b * o.v for a, b in out])
 
 
 def detect_pane_corners(
     cloud: PointCloud, params: TiePointParams | None = None
 ) -> tuple[NDArray[np.float64], pd.DataFrame, cKDTree, float]:
-    """Window pane corners of a cloud (local frame), on the pane mid-plane.
+    """Corners of the outline bounding box of every glazed opening (local frame, mid-plane).
+
+    For rectangular lights these are the pane corners; for arched lights the two
+    upper ones lie outside the glass (on the box).
 
     Returns
     -------
     corners
         ``(K, 3)`` corner coordinates in the cloud's local frame.
     table
-        One row per corner: pane index, corner label (0 bottom-left, 1 bottom-right,
-        2 top-right, 3 top-left, seen from the viewer), pane width and height, and the
+        One row per corner: opening index, corner label (0 bottom-left, 1 bottom-right,
+        2 top-right, 3 top-left, seen from the viewer), width, height and the
         viewer-side normal.
     tree, spacing
-        The cloud's KD-tree and point spacing (reused for descriptors).
+        The cloud's KD-tree and median point spacing.
     """
+    from pyheracles.geometry.neighbours import point_spacing
+
     p = params or TiePointParams()
     cloud.validate(what="cloud for tie points")
-    xyz = cloud.xyz
-    tree = cKDTree(xyz, balanced_tree=False, compact_nodes=False)
-    spacing = point_spacing(xyz, tree)
-    panes = _find_panes(xyz, tree, spacing, p)
-    rows = []
-    corners = []
-    rng = np.random.default_rng(p.seed)
-    for k, pane in enumerate(panes):  # tens of panes
-        h, v, n = pane["h"], pane["v"], pane["normal_view"]
-        lo, hi = pane["lo"], pane["hi"]
-        # seen from the viewer (looking along -n, up = v), +h points right when n = +normal
-        ordered = [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])]
-        if n @ pane["normal"] < 0:
-            ordered = [ordered[1], ordered[0], ordered[3], ordered[2]]
-        for label, (a, b) in enumerate(ordered):
-            rough = a * h + b * v + pane["normal"] * pane["plane_d"]
-            try:
-                c = measure_plane_corner(
-                    xyz,
-                    rough,
-                    tree=tree,
-                    search_m=p.corner_search_m,
-                    threshold_m=max(p.plane_threshold_m / 2, 2.5 * spacing / 4),
-                    rng=rng,
-                )
-            except DegenerateGeometryError:
-                continue
-            if np.linalg.norm(c.point - rough) > 0.1:
-                continue
-            corners.append(c.point - n * p.pane_thickness_m / 2)
+    ops = detect_openings(cloud.xyz, p.pane_params())
+    rows, corners = [], []
+    for k, o in enumerate(ops):  # tens of openings
+        rel = o.outline - o.centre
+        lo_u, hi_u = np.percentile(rel @ o.h, [1, 99])
+        lo_v, hi_v = np.percentile(rel @ o.v, [1, 99])
+        # seen from the viewer (looking along -normal, up = v), right is normal x v
+        right = 1.0 if np.cross(o.normal, o.v) @ o.h > 0 else -1.0
+        uu = (lo_u, hi_u) if right > 0 else (hi_u, lo_u)
+        for label, (a, b) in enumerate(
+            [(uu[0], lo_v), (uu[1], lo_v), (uu[1], hi_v), (uu[0], hi_v)]
+        ):
+            corners.append(o.centre + a * o.h + b * o.v)
             rows.append(
-                {
-                    "pane": k,
-                    "label": label,
-                    "width": hi[0] - lo[0],
-                    "height": hi[1] - lo[1],
-                    "nx": n[0],
-                    "ny": n[1],
-                    "nz": n[2],
-                }
-            )
+                {"pane": k, "label": label, "width": o.width, "height": o.height,
+                 "nx": o.normal[0], "ny": o.normal[1], "nz": o.normal[2]}
+            )  # fmt: skip
     table = pd.DataFrame(rows, columns=["pane", "label", "width", "height", "nx", "ny", "nz"])
-    return np.array(corners).reshape(-1, 3), table, tree, spacing
+    tree = cKDTree(cloud.xyz)
+    return np.array(corners).reshape(-1, 3), table, tree, point_spacing(cloud.xyz, tree)
 
 
 # ----------------------------------------------------------------------------- descriptors
@@ -401,101 +302,6 @@ def spin_images(
     return h / np.maximum(h.sum(axis=1, keepdims=True), 1e-12)
 
 
-def _keypoints(cloud: PointCloud, p: TiePointParams) -> Keypoints:
-    corners, table, tree, _spacing = detect_pane_corners(cloud, p)
-    if len(corners) == 0:
-        raise InputError(
-            "no window pane corners found",
-            path=cloud.source,
-            hint="the automatic tie points need glazed openings seen from both sides; "
-            "use --tiepoints with manual tie points instead",
-        )
-    normals_view = table[["nx", "ny", "nz"]].to_numpy(float)
-    # normals of the support points, oriented towards the viewer side of the nearest corner
-    support = np.unique(
-        np.concatenate(
-            [
-                np.asarray(x, dtype=int)
-                for x in tree.query_ball_point(corners, 2 * p.fpfh_radius_m, workers=-1)
-            ]
-        )
-    )
-    sub = cloud.xyz[support]
-    n_sub, _ = estimate_normals(sub, k=12)
-    # orient every normal towards a viewpoint 0.5 m in front of its nearest corner: the
-    # pane and both reveals then face the inside of the opening from either side
-    _, near_corner = cKDTree(corners).query(sub)
-    viewpoint = corners[near_corner] + 0.5 * normals_view[near_corner]
-    toward = np.einsum("ij,ij->i", n_sub, viewpoint - sub) < 0
-    n_sub[toward] *= -1
-    sub_tree = cKDTree(sub)
-    f = fpfh(sub, n_sub, sub_tree, corners, p.fpfh_radius_m)
-    s = spin_images(cloud.xyz, tree, corners, normals_view, p.spin_radius_m)
-    return Keypoints(
-        xyz=corners + cloud.offset,
-        pane=table["pane"].to_numpy(int),
-        label=table["label"].to_numpy(int),
-        size=table[["width", "height"]].to_numpy(float),
-        normal=normals_view,
-        fpfh=f,
-        spin=s,
-        panes=table,
-    )
-
-
-# ----------------------------------------------------------------------------- matching
-def _match(ks: Keypoints, kt: Keypoints, p: TiePointParams) -> NDArray[np.int_]:
-    """Reciprocal nearest neighbours in descriptor space among compatible corners."""
-    desc_s = np.hstack([ks.fpfh, ks.spin])
-    desc_t = np.hstack([kt.fpfh, kt.spin])
-    # chi-square-like distance via Hellinger embedding (sqrt of histograms), then L2
-    D = np.linalg.norm(np.sqrt(desc_s)[:, None, :] - np.sqrt(desc_t)[None, :, :], axis=2)
-    # left/right are mirrored between an outside and an inside view of the same pane
-    mirrored = np.array([1, 0, 3, 2]) if p.opposite_sides else np.arange(4)
-    compatible = (mirrored[ks.label][:, None] == kt.label[None, :]) & np.all(
-        np.abs(ks.size[:, None, :] - kt.size[None, :, :]) <= p.size_tolerance_m, axis=2
-    )
-    D = np.where(compatible, D, np.inf)
-    best_t = np.argmin(D, axis=1)
-    best_s = np.argmin(D, axis=0)
-    i = np.arange(len(ks.xyz))
-    ok = np.isfinite(D[i, best_t]) & (best_s[best_t] == i)
-    return np.column_stack([i[ok], best_t[ok]])
-
-
-def _ransac(a: NDArray[np.float64], b: NDArray[np.float64], p: TiePointParams) -> NDArray[np.bool_]:
-    """Consensus of 3-point similarity hypotheses (vectorised scoring per batch)."""
-    n = len(a)
-    rng = np.random.default_rng(p.seed)
-    best = np.zeros(n, bool)
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    a0, b0 = a - ca, b - cb
-    needed = p.ransac_trials
-    trial = 0
-    while trial < min(needed, p.ransac_trials):  # adaptive stop (Fischler & Bolles 1981)
-        trial += 1
-        s = rng.choice(n, size=3, replace=False)
-        pa, pb = a0[s], b0[s]
-        if np.linalg.norm(np.cross(pa[1] - pa[0], pa[2] - pa[0])) < 0.05:
-            continue
-        ma, mb = pa.mean(0), pb.mean(0)
-        rot, _ = Rotation.align_vectors(pb - mb, pa - ma)
-        R = rot.as_matrix()
-        ra = (pa - ma) @ R.T
-        sc = float(np.sum(ra * (pb - mb)) / max(np.sum(ra * ra), 1e-12))
-        if not 0.8 < sc < 1.25:
-            continue
-        pred = sc * (a0 - ma) @ R.T + mb
-        inl = np.linalg.norm(pred - b0, axis=1) < p.inlier_m
-        if inl.sum() > best.sum():
-            best = inl
-            w3 = (best.sum() / n) ** 3
-            if w3 >= 1.0:
-                break
-            needed = int(np.ceil(np.log(1e-4) / np.log(1.0 - max(w3, 1e-9)))) + 10
-    return best
-
-
 def find_tie_points(
     source: PointCloud,
     target: PointCloud,
@@ -503,54 +309,82 @@ def find_tie_points(
     *,
     similarity: SimilarityParams | None = None,
 ) -> TiePointResult:
-    """Automatic tie points between two clouds that see the same window panes.
+    """Automatic tie points between two clouds that see the same glazed openings.
 
-    Returns the matched corners as two point lists (source and target world frames,
-    same ids ``AUTO001``...) and the robust similarity ``T_target_source`` estimated
-    from them (modified Danish method by default).
+    Returns four mid-plane outline points per matched opening as two point lists
+    (source and target world frames, same ids ``AUTO001``...) and the robust
+    similarity ``T_target_source`` estimated from them (modified Danish method by
+    default), with its standard deviations and residuals as for manual tie points.
 
     Raises
     ------
     InputError
-        No panes in one cloud, or fewer than 3 consistent matches (clouds that do not
-        share openings).
+        No glazed opening in one cloud, or no trustworthy match: fewer than three
+        openings in a consistent arrangement, outlines that do not agree, or an
+        ambiguous arrangement (two different solutions explain nearly as many
+        openings: repeated bays, a mirrored building).  The message says which.
+    EstimationError
+        The tie points are degenerate for the similarity.
     """
     p = params or TiePointParams()
     sp = similarity or SimilarityParams(estimator="danish")
-    ks = _keypoints(source, p)
-    kt = _keypoints(target, p)
-    pairs = _match(ks, kt, p)
-    if len(pairs) < 3:
+    ops_s = _openings(source, p, "source cloud for tie points")
+    ops_t = _openings(target, p, "target cloud for tie points")
+    with progress.stage("matching the openings"):
+        m = match_openings(ops_s, ops_t, p.match_params())
+    if not isinstance(m, OpeningMatch):
         raise InputError(
-            f"only {len(pairs)} tentative tie point matches between the clouds",
+            f"no trustworthy match of the window openings: {m} "
+            f"({len(ops_s)} and {len(ops_t)} openings found)",
             path=source.source,
-            hint="check that both clouds see the same window panes, or give manual tie points",
+            hint="check that both clouds see the same glazed openings, or give manual "
+            "tie points (--tiepoints)",
         )
-    a = ks.xyz[pairs[:, 0]]
-    b = kt.xyz[pairs[:, 1]]
-    inl = _ransac(a, b, p)
-    if inl.sum() < 3:
-        raise InputError(
-            f"no consistent set of tie points ({int(inl.sum())} of {len(pairs)} matches agree)",
-            path=source.source,
-            hint="the clouds may not overlap through the same openings",
-        )
+    a_list, b_list = [], []
+    for (i, _j), L in zip(m.pairs, m.local, strict=True):  # tens of openings
+        pts = _outline_points(ops_s[i])
+        a_list.append(pts)
+        b_list.append(pts @ L[:3, :3].T + L[:3, 3])
+    a = np.vstack(a_list) + source.offset
+    b = np.vstack(b_list) + target.offset
+    ids = tuple(f"AUTO{i + 1:03d}" for i in range(len(a)))
     try:
-        sim = estimate_similarity(a[inl], b[inl], sp)
+        sim = estimate_similarity(a, b, sp, ids=ids)
     except DegenerateGeometryError as exc:
         raise EstimationError(f"tie points are degenerate: {exc}") from exc
-    keep = np.flatnonzero(inl)[~sim.outliers]
-    ids = tuple(f"AUTO{i + 1:03d}" for i in range(len(keep)))
+    keep = np.flatnonzero(~sim.outliers)
+    if len(keep) < 3:
+        raise InputError(
+            f"only {len(keep)} tie points survive the robust estimate",
+            path=source.source,
+            hint="give manual tie points (--tiepoints)",
+        )
+    kid = tuple(ids[i] for i in keep)
     final = estimate_similarity(
-        a[keep], b[keep], SimilarityParams(with_scale=sp.with_scale), ids=ids
+        a[keep], b[keep], SimilarityParams(with_scale=sp.with_scale), ids=kid
     )
+    rms = final.rms()["3d"]
+    if rms > p.max_tie_rms_m:
+        raise InputError(
+            f"the automatic tie points disagree: RMS {rms * 100:.1f} cm about the "
+            f"similarity (at most {p.max_tie_rms_m * 100:.1f} cm accepted)",
+            path=source.source,
+            hint="give manual tie points (--tiepoints)",
+        )
     return TiePointResult(
-        source=PointList(ids, a[keep], source=source.source),
-        target=PointList(ids, b[keep], source=target.source),
+        source=PointList(kid, a[keep], source=source.source),
+        target=PointList(kid, b[keep], source=target.source),
         similarity=final,
-        n_panes=(int(ks.panes["pane"].nunique()), int(kt.panes["pane"].nunique())),
-        n_keypoints=(len(ks.xyz), len(kt.xyz)),
-        n_putative=len(pairs),
-        n_ransac_inliers=int(inl.sum()),
-        details={"robust_flagged": int(sim.outliers.sum())},
+        n_panes=(len(ops_s), len(ops_t)),
+        n_keypoints=(len(a), len(b)),
+        n_putative=m.n_candidates,
+        n_ransac_inliers=m.n_consistent,
+        details={
+            "robust_flagged": int(sim.outliers.sum()),
+            "n_matched_openings": len(m.pairs),
+            "runner_up_openings": m.runner_up,
+            "contradicting_openings": m.n_contradicted,
+            "mirrored_arrangements_refused": m.n_mirrored,
+            "outline_rms_median_m": float(np.median(m.outline_rms)),
+        },
     )

@@ -410,10 +410,14 @@ class RayCaster:
         t, prim = self.cast(o, directions)
         passed = np.zeros(n, bool)
         glass_at = np.full(n, np.inf)
+        # only beams still travelling are tested: a beam that did not pass a glass face
+        # returns from it and is never re-drawn (else glass would almost never return)
+        active = np.ones(n, bool)
         for _ in range(max_layers):
-            hit = prim >= 0
-            go = hit & (self.transmittance[np.maximum(prim, 0)] > 0)
-            go &= rng.random(n) < self.transmittance[np.maximum(prim, 0)]
+            tr = self.transmittance[np.maximum(prim, 0)]
+            on_glass = active & (prim >= 0) & (tr > 0)
+            go = on_glass & (rng.random(n) < tr)
+            active = go
             if not go.any():
                 break
             idx = np.flatnonzero(go)
@@ -467,9 +471,14 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     r = R.ravel()[flat].astype(float)
     # glass: most beams pass through and return from what lies behind
     through = np.zeros(len(flat), bool)
+    # only the beams that passed the previous glass face are tested at the next one: a
+    # beam that did not pass returns from that face (it is not re-drawn)
+    active = np.ones(len(flat), bool)
     for _ in range(4):
         tr = caster.transmittance[prim]
-        go = np.flatnonzero((tr > 0) & (rng.random(len(prim)) < tr))
+        go = np.flatnonzero(active & (tr > 0) & (rng.random(len(prim)) < tr))
+        active = np.zeros(len(prim), bool)
+        active[go] = True
         if len(go) == 0:
             break
         o2 = origin + (r[go] + 1e-4)[:, None] * d[go]
@@ -481,7 +490,9 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
         Rf, Pf = R.reshape(-1), P.reshape(-1)
         Rf[flat[~sel]] = np.inf
         Pf[flat[~sel]] = -1
-        flat, ia, ie, d, prim, r, through = (x[sel] for x in (flat, ia, ie, d, prim, r, through))
+        flat, ia, ie, d, prim, r, through, active = (
+            x[sel] for x in (flat, ia, ie, d, prim, r, through, active)
+        )
         Rf[flat] = r
         Pf[flat] = prim
     cosi = np.abs(np.einsum("ij,ij->i", caster.normals[prim], d))

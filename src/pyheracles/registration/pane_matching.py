@@ -1,0 +1,444 @@
+"""Matching the glazed openings of two clouds and least squares on their pane outlines.
+
+Windows all look alike, so a match is decided by the whole arrangement, not by one
+window (thesis ch. 3, Murtiyoso 2020):
+
+1. **Candidates** - every pair of openings of compatible size (width and height).
+2. **Consistency** - two candidate pairs agree when they keep the rigid invariants:
+   the distance between the two pane centres, the angle between the two pane normals,
+   and each normal's angle with the baseline (normals point to each cloud's viewer,
+   hence opposite between an exterior and an interior view).
+3. **Hypotheses** - maximal sets of mutually consistent pairs (greedy cliques, a
+   simplified max-clique as in TEASER++), each giving a rigid transform from pane
+   centres and normals (Kabsch; a reflection is refused, so a mirrored arrangement
+   never passes).
+4. **Fine fit** - point-to-line least squares of the pane mid-plane outlines with the
+   pane depths, for the best hypotheses; the outlines decide between a true solution
+   and a one-bay shift (neighbouring windows differ by centimetres in size or shape).
+   A runner-up explaining nearly as many openings is refused as ambiguous.
+5. **Tie points** - per matched opening a local in-plane fit of its outline and its
+   pane depth gives four outline points (left, right, bottom, top of the mid-plane
+   outline) in both frames, for the usual robust similarity and its report.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles.registration.panes import Opening
+
+__all__ = [
+    "MatchParams",
+    "OpeningMatch",
+    "match_openings",
+    "rigid_from_openings",
+]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MatchParams:
+    """Parameters of :func:`match_openings` (metres and degrees).
+
+    Attributes
+    ----------
+    size_tolerance_m, size_tolerance_rel
+        Largest width / height difference of two openings that may match:
+        ``size_tolerance_m + size_tolerance_rel * size``.
+    distance_tolerance_m
+        Largest difference of two centre-to-centre distances (rigid invariant); the
+        centres come from outlines seen in part (a sill hidden from below), hence
+        the decimetres.
+    angle_tolerance_deg
+        Largest difference of normal angles (rigid invariant).
+    opposite_sides
+        The clouds see the panes from opposite sides (exterior vs interior).
+    hypotheses
+        Best cliques refined by the fine fit.
+    centre_gate_m
+        An opening is explained by a transform when its mapped centre lies within this
+        distance of its partner's (and the normals agree).
+    fine_gates_m
+        Outline correspondence distances of the fine fit, coarse to fine.
+    fine_tolerance_m
+        An opening's outline agrees when the median point-to-line distance is below it.
+    min_openings
+        Fewest matched openings for a solution.
+    ambiguity_ratio
+        A runner-up with at least this share of the best's agreeing openings (and at
+        least ``min_openings``) makes the solution ambiguous.
+    max_outline_points
+        Outline points per opening used in the fine fit (regular subsample).
+    max_contradiction
+        A hypothesis is refused when more openings contradict it (mapped onto a
+        partner whose outline disagrees) than this share of those that agree.
+    max_tilt_deg
+        Largest angle between the vertical of the two clouds (both roughly levelled):
+        hypotheses turning the building over are refused.
+    up
+        Vertical direction in both clouds.
+    """
+
+    size_tolerance_m: float = 0.1
+    size_tolerance_rel: float = 0.1
+    distance_tolerance_m: float = 0.25
+    angle_tolerance_deg: float = 8.0
+    opposite_sides: bool = True
+    hypotheses: int = 4
+    centre_gate_m: float = 0.3
+    fine_gates_m: tuple[float, ...] = (0.08, 0.04, 0.02, 0.015)
+    fine_tolerance_m: float = 0.012
+    min_openings: int = 3
+    ambiguity_ratio: float = 0.8
+    max_outline_points: int = 400
+    max_tilt_deg: float = 10.0
+    max_contradiction: float = 0.5
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True, eq=False)
+class OpeningMatch:
+    """Result of :func:`match_openings` (``T_target_source`` maps source to target).
+
+    Attributes
+    ----------
+    T_target_source
+        Rigid transform from the fine fit.
+    pairs
+        ``(K, 2)`` indices of the matched openings (source, target) whose outlines agree.
+    outline_rms
+        ``(K,)`` RMS point-to-line distance of each matched outline, metres.
+    local
+        ``(K, 4, 4)`` local transforms (the global one corrected in the pane plane and
+        along its normal by the opening's own outline and depth).
+    n_candidates, n_consistent
+        Candidate pairs and the size of the best clique.
+    runner_up
+        Agreeing openings of the best different hypothesis (0 if none).
+    n_contradicted
+        Openings mapped onto a partner whose outline disagrees (wrong detections).
+    n_mirrored
+        Consistent arrangements refused because only a reflection maps them.
+    """
+
+    T_target_source: Array
+    pairs: NDArray[np.int_]
+    outline_rms: Array
+    local: Array
+    n_candidates: int
+    n_consistent: int
+    runner_up: int
+    n_contradicted: int = 0
+    n_mirrored: int = 0
+
+
+def rigid_from_openings(cs: Array, ns: Array, ct: Array, nt: Array, opposite: bool = True) -> Array:
+    """Rigid ``T_target_source`` (4x4) from pane centres and viewer normals (Kabsch).
+
+    The normals enter as points one metre in front of each centre; with
+    ``opposite`` the target normals are reversed (they point to the other side).
+    """
+    sgn = -1.0 if opposite else 1.0
+    a = np.vstack([cs, cs + ns])
+    b = np.vstack([ct, ct + sgn * nt])
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    H = (a - ca).T @ (b - cb)
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    R = Vt.T @ D @ U.T
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = cb - R @ ca
+    return T
+
+
+def _reflection_fits_better(
+    cs: Array, ns: Array, ct: Array, nt: Array, opposite: bool, up: Array
+) -> bool:
+    """Whether an improper orthogonal map (a mirror) fits better than a rotation.
+
+    The vertical of both (levelled) clouds enters as one more direction, so that an
+    arrangement of panes in one plane cannot be turned over instead of mirrored.
+    """
+    sgn = -1.0 if opposite else 1.0
+    a = np.vstack([cs, cs + ns, cs.mean(axis=0) + up])
+    b = np.vstack([ct, ct + sgn * nt, ct.mean(axis=0) + up])
+    H = (a - a.mean(axis=0)).T @ (b - b.mean(axis=0))
+    U, sv, Vt = np.linalg.svd(H)
+    # the best proper and improper fits differ by 2 x the smallest singular value
+    return bool(np.linalg.det(Vt.T @ U.T) < 0 and sv[2] > 1e-6 * sv[0])
+
+
+def _consistency(S: list[Opening], Tg: list[Opening], cand: NDArray, p: MatchParams):
+    """Boolean ``(C, C)`` matrix: candidate pairs that keep the rigid invariants."""
+    cs = np.array([S[i].centre for i in cand[:, 0]])
+    ct = np.array([Tg[j].centre for j in cand[:, 1]])
+    ns = np.array([S[i].normal for i in cand[:, 0]])
+    nt = np.array([Tg[j].normal for j in cand[:, 1]])
+    sgn = -1.0 if p.opposite_sides else 1.0
+    bs = cs[None, :, :] - cs[:, None, :]
+    bt = ct[None, :, :] - ct[:, None, :]
+    ds, dt = np.linalg.norm(bs, axis=2), np.linalg.norm(bt, axis=2)
+    ok = np.abs(ds - dt) < p.distance_tolerance_m
+    cos_tol = np.sin(np.deg2rad(p.angle_tolerance_deg))
+    ok &= np.abs(ns @ ns.T - nt @ nt.T) < cos_tol
+    with np.errstate(invalid="ignore", divide="ignore"):
+        us = bs / np.maximum(ds, 1e-9)[:, :, None]
+        ut = bt / np.maximum(dt, 1e-9)[:, :, None]
+    ok &= np.abs(np.einsum("ik,ijk->ij", ns, us) - sgn * np.einsum("ik,ijk->ij", nt, ut)) < cos_tol
+    ok &= np.abs(np.einsum("jk,ijk->ij", ns, us) - sgn * np.einsum("jk,ijk->ij", nt, ut)) < cos_tol
+    same = (cand[:, 0][:, None] == cand[:, 0][None, :]) | (
+        cand[:, 1][:, None] == cand[:, 1][None, :]
+    )
+    ok &= ~same
+    ok &= ds > 0.3  # two lights of one window are too close to fix a rotation
+    return ok
+
+
+def _cliques(A: NDArray[np.bool_], n_seeds: int = 60) -> list[NDArray[np.int_]]:
+    """Greedy maximal cliques of ``A`` grown from its best-connected nodes."""
+    deg = A.sum(axis=1)
+    order = np.argsort(-deg)
+    out: list[NDArray[np.int_]] = []
+    seen: set[tuple[int, ...]] = set()
+    for s in order[:n_seeds]:  # tens of seeds
+        clique = [int(s)]
+        cand = A[s].copy()
+        while cand.any():
+            c = np.flatnonzero(cand)
+            k = int(c[np.argmax(A[np.ix_(c, c)].sum(axis=1))])
+            clique.append(k)
+            cand &= A[k]
+            cand[k] = False
+        key = tuple(sorted(clique))
+        if key not in seen:
+            seen.add(key)
+            out.append(np.array(key))
+    out.sort(key=len, reverse=True)
+    return out
+
+
+def _explained(S, Tg, T, p: MatchParams) -> NDArray[np.int_]:
+    """Pairs (source, target) whose centres and normals agree under ``T``."""
+    cs = np.array([o.centre for o in S]) @ T[:3, :3].T + T[:3, 3]
+    ns = np.array([o.normal for o in S]) @ T[:3, :3].T
+    ct = np.array([o.centre for o in Tg])
+    nt = np.array([o.normal for o in Tg])
+    sgn = -1.0 if p.opposite_sides else 1.0
+    d, j = cKDTree(ct).query(cs)
+    ok = (d < p.centre_gate_m) & (np.einsum("ij,ij->i", ns, sgn * nt[j]) > 0.95)
+    pairs = np.column_stack([np.flatnonzero(ok), j[ok]])
+    # one target opening for one source opening: keep the closest
+    keep = []
+    for jt in np.unique(pairs[:, 1]):  # tens of openings
+        rows = np.flatnonzero(pairs[:, 1] == jt)
+        keep.append(rows[np.argmin(d[pairs[rows, 0]])])
+    return pairs[np.sort(np.array(keep, dtype=int))] if keep else pairs[:0]
+
+
+def _subsample(o: Opening, m: int) -> tuple[Array, Array]:
+    step = max(1, len(o.outline) // m)
+    return o.outline[::step], o.outline_normal[::step]
+
+
+def _fine(S, Tg, pairs, T0, p: MatchParams):
+    """Point-to-line least squares of the matched outlines plus the pane depths."""
+    T = T0.copy()
+    src = [_subsample(S[i], p.max_outline_points) for i in pairs[:, 0]]
+    trees = [cKDTree(Tg[j].outline) for j in pairs[:, 1]]
+    sgn = -1.0 if p.opposite_sides else 1.0
+    for gate in p.fine_gates_m:  # coarse to fine correspondence gates
+        for _ in range(6):
+            rows_A, rows_b, rows_w = [], [], []
+            R, t = T[:3, :3], T[:3, 3]
+            for k, (i, j) in enumerate(pairs):  # tens of openings
+                P = src[k][0] @ R.T + t
+                d, nb = trees[k].query(P, distance_upper_bound=gate)
+                ok = np.isfinite(d)
+                if ok.sum() >= 5:
+                    q = Tg[j].outline[nb[ok]]
+                    n = Tg[j].outline_normal[nb[ok]]
+                    x = P[ok]
+                    rows_A.append(np.hstack([np.cross(x, n), n]))
+                    rows_b.append(-np.einsum("ij,ij->i", x - q, n))
+                    rows_w.append(np.full(ok.sum(), 1.0))
+                # pane depth: the mapped centre on the partner's mid-plane (worth 30 points)
+                c = R @ S[i].centre + t
+                n = sgn * Tg[j].normal
+                rows_A.append(np.hstack([np.cross(c, n), n])[None, :])
+                rows_b.append(np.array([-(c - Tg[j].centre) @ n]))
+                rows_w.append(np.array([30.0]))
+            if not rows_A:
+                break
+            A = np.vstack(rows_A)
+            b = np.concatenate(rows_b)
+            w = np.concatenate(rows_w)
+            # Huber weights on the residuals of the current estimate (robust kernel)
+            r = np.abs(b)
+            s = max(1.4826 * np.median(r), 1e-4)
+            w = w * np.minimum(1.0, 1.5 * s / np.maximum(r, 1e-12))
+            x, *_ = np.linalg.lstsq(A * w[:, None] ** 0.5, b * w**0.5, rcond=None)
+            dR = _rotvec(x[:3])
+            Tn = np.eye(4)
+            Tn[:3, :3] = dR
+            Tn[:3, 3] = x[3:]
+            T = Tn @ T
+            if np.linalg.norm(x[:3]) < 1e-7 and np.linalg.norm(x[3:]) < 1e-6:
+                break
+    return T
+
+
+def _rotvec(w: Array) -> Array:
+    th = np.linalg.norm(w)
+    if th < 1e-15:
+        return np.eye(3)
+    k = w / th
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+
+
+def _agreement(S, Tg, pairs, T, p: MatchParams):
+    """Per pair: median and RMS point-to-line distance of the outline, local transform."""
+    sgn = -1.0 if p.opposite_sides else 1.0
+    med, rms, local = [], [], []
+    R, t = T[:3, :3], T[:3, 3]
+    gate = p.fine_gates_m[-1] * 2
+    for i, j in pairs:  # tens of openings
+        P, _ = _subsample(S[i], p.max_outline_points)
+        P = P @ R.T + t
+        tree = cKDTree(Tg[j].outline)
+        d, nb = tree.query(P, distance_upper_bound=gate)
+        ok = np.isfinite(d)
+        if ok.sum() < max(10, 0.3 * len(P)):
+            med.append(np.inf)
+            rms.append(np.inf)
+            local.append(T)
+            continue
+        q = Tg[j].outline[nb[ok]]
+        n = Tg[j].outline_normal[nb[ok]]
+        r = np.einsum("ij,ij->i", P[ok] - q, n)
+        # local fit: in-plane translation and rotation about the pane normal + depth
+        nz = sgn * Tg[j].normal
+        h = Tg[j].h
+        v = np.cross(nz, h)
+        c = Tg[j].centre
+        rel = P[ok] - c
+        A = np.column_stack([n @ h, n @ v, np.einsum("ij,ij->i", np.cross(nz, rel), n)])
+        x, *_ = np.linalg.lstsq(A, -r, rcond=None)
+        cm = R @ S[i].centre + t
+        dz = -(cm - c) @ nz
+        r2 = r + A @ x
+        med.append(float(np.median(np.abs(r2))))
+        rms.append(float(np.sqrt(np.mean(r2**2))))
+        L = np.eye(4)
+        L[:3, :3] = _rotvec(x[2] * nz)
+        L[:3, 3] = c - L[:3, :3] @ c + x[0] * h + x[1] * v + dz * nz
+        local.append(L @ T)
+    return np.array(med), np.array(rms), np.array(local).reshape(-1, 4, 4)
+
+
+def match_openings(
+    source: list[Opening], target: list[Opening], params: MatchParams | None = None
+) -> OpeningMatch | str:
+    """Match the openings of two clouds; a failure is returned as its reason (a string).
+
+    Returns
+    -------
+    OpeningMatch or str
+        The match, or a one-line reason why no trustworthy match exists (too few
+        consistent openings, or an ambiguous arrangement such as a one-bay shift).
+    """
+    p = params or MatchParams()
+    if min(len(source), len(target)) < p.min_openings:
+        return f"{len(source)} and {len(target)} openings: at least {p.min_openings} needed"
+    ws = np.array([[o.width, o.height] for o in source])
+    wt = np.array([[o.width, o.height] for o in target])
+    tol = p.size_tolerance_m + p.size_tolerance_rel * np.maximum(ws[:, None, :], wt[None, :, :])
+    ok = np.all(np.abs(ws[:, None, :] - wt[None, :, :]) <= tol, axis=2)
+    cand = np.argwhere(ok)
+    if len(cand) < p.min_openings:
+        return f"only {len(cand)} pairs of openings of compatible size"
+    A = _consistency(source, target, cand, p)
+    cliques = [c for c in _cliques(A) if len(c) >= p.min_openings]
+    if not cliques:
+        return f"no {p.min_openings} openings in a consistent arrangement ({len(cand)} candidates)"
+    results = []
+    tried: list[Array] = []
+    n_contradicted = 0
+    n_mirrored = 0
+    cbar = np.mean([o.centre for o in source], axis=0)
+    up = np.asarray(p.up, float) / np.linalg.norm(p.up)
+    cos_tilt = np.cos(np.deg2rad(p.max_tilt_deg))
+    for cl in cliques:  # best cliques first, distinct transforms only
+        pr = cand[cl]
+        cs = np.array([source[i].centre for i in pr[:, 0]])
+        ns = np.array([source[i].normal for i in pr[:, 0]])
+        ct = np.array([target[j].centre for j in pr[:, 1]])
+        nt = np.array([target[j].normal for j in pr[:, 1]])
+        if _reflection_fits_better(cs, ns, ct, nt, p.opposite_sides, up):
+            n_mirrored += 1  # the arrangement is the mirror image: no rotation maps it
+            continue
+        T0 = rigid_from_openings(cs, ns, ct, nt, p.opposite_sides)
+        if T0[:3, :3] @ up @ up < cos_tilt:  # turned over: not a levelled pair of clouds
+            continue
+        if any(_same_pose(T0, Tk, cbar) for Tk in tried):
+            continue
+        tried.append(T0)
+        pairs = _explained(source, target, T0, p)
+        if len(pairs) < p.min_openings:
+            continue
+        T = _fine(source, target, pairs, T0, p)
+        pairs = _explained(source, target, T, p)
+        T = _fine(source, target, pairs, T, p)
+        med, rms, local = _agreement(source, target, pairs, T, p)
+        good = med < p.fine_tolerance_m
+        # openings mapped onto a partner whose outline disagrees contradict the solution
+        # (a mirrored or shifted arrangement lands windows on windows of another size)
+        bad = int((~good).sum())
+        if bad > p.max_contradiction * good.sum():
+            n_contradicted += 1
+            continue
+        results.append((int(good.sum()), T, pairs[good], rms[good], local[good], len(cl), bad))
+        if len(tried) >= p.hypotheses:
+            break
+    if not results:
+        return (
+            f"no hypothesis explains enough openings ({n_mirrored} mirrored, "
+            f"{n_contradicted} contradicted by outlines of another size)"
+        )
+    results.sort(key=lambda r: -r[0])
+    best = results[0]
+    runner = max((r[0] for r in results[1:] if not _same_pose(r[1], best[1], cbar)), default=0)
+    if best[0] < p.min_openings:
+        return f"only {best[0]} openings whose outlines agree (of {len(best[2])} matched)"
+    if runner >= p.min_openings and runner >= p.ambiguity_ratio * best[0]:
+        return (
+            f"ambiguous arrangement: two different solutions explain {best[0]} and "
+            f"{runner} openings (repeated bays or a mirrored building)"
+        )
+    return OpeningMatch(
+        T_target_source=best[1],
+        pairs=best[2],
+        outline_rms=best[3],
+        local=best[4],
+        n_candidates=len(cand),
+        n_consistent=best[5],
+        runner_up=runner,
+        n_contradicted=best[6],
+        n_mirrored=n_mirrored,
+    )
+
+
+def _same_pose(
+    Ta: Array, Tb: Array, centre: Array, tol_m: float = 0.1, extent_m: float = 10.0
+) -> bool:
+    """Two transforms agree within ``tol_m`` over ``extent_m`` around ``centre``."""
+    D = Ta[:3, :3] @ Tb[:3, :3].T
+    ang = np.arccos(np.clip((np.trace(D) - 1) / 2, -1, 1))
+    move = (Ta[:3, :3] - Tb[:3, :3]) @ centre + Ta[:3, 3] - Tb[:3, 3]
+    return bool(np.linalg.norm(move) + ang * extent_m < tol_m)
