@@ -221,7 +221,8 @@ def test_ahn3_tiles_match_single_run(shared_data: Path, tmp_path: Path, n: int) 
     merged = res.objects
     assert not merged.duplicated(["class", "source_fid"]).any()
     assert len(merged) == len(seg.objects)
-    h = laspy.open(d / "ahn3_tile1.laz").header
+    with laspy.open(d / "ahn3_tile1.laz") as reader:
+        h = reader.header
     world = cloud.world_xyz()
     w = (h.maxs[0] - h.mins[0]) / n
     dd = (h.maxs[1] - h.mins[1]) / n
@@ -243,6 +244,7 @@ def test_ahn3_tiles_match_single_run(shared_data: Path, tmp_path: Path, n: int) 
         ref = [lut.get(int(i)) for i in seg.instance[sel]]
         agree += sum(a == b for a, b in zip(got, ref, strict=True))
         ground += int(((np.asarray(las.classification) == 2) == seg.ground[sel]).sum())
-    # measured 99.72 % / 99.77 % on 4 tiles (issue target 99.9 %: see the README)
-    assert agree / len(cloud) >= 0.995
-    assert ground / len(cloud) >= 0.995
+    # measured 99.96 % labels / 99.995 % ground on 4 tiles (world-aligned ground cells, the
+    # city's parameters); issue target 99.9 %
+    assert agree / len(cloud) >= 0.999
+    assert ground / len(cloud) >= 0.999

@@ -77,6 +77,7 @@ __all__ = [
     "RefineParams",
     "SMRFParams",
     "SceneMeasures",
+    "aligned_grid",
     "auto_csf_params",
     "auto_params",
     "dtm_from_ground",
@@ -100,6 +101,12 @@ MIN_GROUND_POINTS = 3
 # (mean surface and its work arrays, the membrane inpainting's sparse system over empty
 # cells, the float32 GeoTIFF bands) and a CSF cloth particle (C++ object with positions,
 # displacement and neighbour lists).
+#: Cell edges lie this far east / north of the multiples of the cell size: LAS coordinates
+#: are quantised (often to 1 mm), so many points sit exactly on a multiple of a 1 m cell,
+#: and the float64 rounding of ``world - offset`` (about 1e-7 m at 10^9 m) must not move
+#: them across an edge from one cloud's offset to another's.
+_EDGE_GUARD_M = 1e-6
+
 _FILTER_BYTES_PER_CELL = 64
 _DTM_BYTES_PER_CELL = 96
 _CLOTH_BYTES_PER_PARTICLE = 200
@@ -146,6 +153,55 @@ class GroundResult:
         return {"ground": self.n_ground, "off_ground": n - self.n_ground, "total": n}
 
 
+def aligned_grid(
+    xy: NDArray[np.float64], cell_m: float, origin_m: ArrayLike | None = None
+) -> Grid:
+    """The smallest grid holding ``xy`` whose cell edges are world-aligned.
+
+    The edges lie on the multiples of ``cell_m`` in world coordinates (plus
+    ``_EDGE_GUARD_M``, 1 µm, so that quantised points exactly on a multiple fall in the
+    same cell whatever the offset), so two clouds cut from one survey (tiles, crops) get
+    the same cells where they overlap and a tiled run rasterises exactly as the
+    single-cloud run.
+
+    Parameters
+    ----------
+    xy
+        (N, 2) points in the local frame, metres.
+    cell_m
+        Cell size, metres.
+    origin_m
+        World x, y of the local frame's origin (``PointCloud.offset[:2]``); None = no
+        alignment, the grid starts at the points' west and north edges
+        (:meth:`Grid.covering`).
+
+    Examples
+    --------
+    >>> g = aligned_grid(np.array([[0.2, 0.3], [2.7, 1.9]]), 1.0, origin_m=(100.5, 0.0))
+    >>> round(g.x0_m + 100.5, 3), round(g.y0_m, 3), g.shape
+    (100.0, 2.0, (2, 4))
+    """
+    if not np.isfinite(cell_m) or cell_m <= 0:
+        raise InputError(f"cell size must be a positive number of metres, got {cell_m!r}")
+    if origin_m is None:
+        return Grid.covering(xy, cell_m)
+    c = float(cell_m)
+    o = np.asarray(origin_m, dtype=np.float64).ravel()[:2]
+    if o.shape != (2,) or not np.isfinite(o).all():
+        raise InputError(f"origin_m must be two finite world coordinates, got {origin_m!r}")
+    # the origin's remainder on the cell lattice, in [0, c): small local numbers from here on
+    r = o - np.floor(o / c) * c - _EDGE_GUARD_M
+    lo = np.array([xy[:, 0].min(), xy[:, 1].min()])
+    hi = np.array([xy[:, 0].max(), xy[:, 1].max()])
+    x0 = float(np.floor((lo[0] + r[0]) / c) * c - r[0])
+    y0 = float(np.ceil((hi[1] + r[1]) / c) * c - r[1])
+    if y0 < hi[1]:  # exactly on the north edge: one more row keeps the point inside
+        y0 += c
+    cols = int(np.floor((hi[0] - x0) / c)) + 1
+    rows = int(np.floor((y0 - lo[1]) / c)) + 1
+    return Grid(x0, y0, c, (rows, cols))
+
+
 def _check_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
     arr = np.asarray(xyz, dtype=np.float64)
     if arr.ndim != 2 or arr.shape[1] != 3:
@@ -181,6 +237,7 @@ def _surface_note(
     mask: NDArray[np.bool_],
     cell_m: float,
     sampler: RasterSampler | None = None,
+    origin_m: ArrayLike | None = None,
 ) -> str:
     """Why the ground found is not terrain, or '' when it looks like terrain.
 
@@ -192,7 +249,7 @@ def _surface_note(
     if sampler is not None and sampler.grid.cell_m == cell_m:
         grid, flat = sampler.grid, sampler.flat
     else:
-        grid = Grid.covering(xyz[:, :2], cell_m)
+        grid = aligned_grid(xyz[:, :2], cell_m, origin_m)
         flat = grid.flat_index(xyz[:, :2])
     size = grid.shape[0] * grid.shape[1]
     ground_flat = flat[mask]
@@ -261,6 +318,7 @@ def extract_ground(
     dtm_cell_m: float | None = None,
     rng: np.random.Generator | int | None = None,
     source: str | None = None,
+    origin_m: ArrayLike | None = None,
 ) -> GroundResult:
     """Classify the ground points of a cloud.
 
@@ -286,6 +344,12 @@ def extract_ground(
         Unused: every filter here is deterministic. Accepted for a uniform API.
     source
         File name of the cloud, for error messages.
+    origin_m
+        World x, y of the local frame's origin (``PointCloud.offset[:2]``). The rasters of
+        ``"auto"`` and ``"smrf"`` and the DTM have their cell edges on the multiples of the
+        cell size in world coordinates (:func:`aligned_grid`), so tiles of one survey get
+        the cells of the single-cloud run (step 1 passes its cloud's offset); None = the
+        grids start at the points' west and north edges. (CSF's cloth is its own grid.)
 
     Returns
     -------
@@ -328,7 +392,7 @@ def extract_ground(
     sampler: RasterSampler | None = None
     if isinstance(used, AutoParams):
         sampler = RasterSampler(
-            Grid.covering(pts[:, :2], used.seed.cell_m), pts[:, :2], dtype=np.float32
+            aligned_grid(pts[:, :2], used.seed.cell_m, origin_m), pts[:, :2], dtype=np.float32
         )
         seeds, _ = smrf(pts, used.seed, sampler=sampler)
         mask = seeds
@@ -340,7 +404,7 @@ def extract_ground(
         cell = used.cloth_resolution_m
     else:
         sampler = RasterSampler(
-            Grid.covering(pts[:, :2], used.cell_m), pts[:, :2], dtype=np.float32
+            aligned_grid(pts[:, :2], used.cell_m, origin_m), pts[:, :2], dtype=np.float32
         )
         mask, _ = smrf(pts, used, sampler=sampler)
         cell = used.cell_m
@@ -352,17 +416,19 @@ def extract_ground(
         # the ground's own spacing: on sparse clouds (0.1-0.3 points/m^2, half of them
         # under vegetation) cells of the cloud's spacing rarely have eight ground
         # neighbours even where the ground is an area (issue 17, terrain seed 3)
-        note = _surface_note(pts, mask, max(cell, spacing), sampler)
+        note = _surface_note(pts, mask, max(cell, spacing), sampler, origin_m)
         if note.startswith("no ground surface") and mask.sum() >= 3:
             coarse = 2.0 * point_spacing_m(pts[mask, :2])
             if coarse > max(cell, spacing):
                 # only the area test is repeated on the coarser cells: the ceiling test
                 # is for building interiors, dense clouds whose cells hold their points
-                retry = _surface_note(pts, mask, coarse)
+                retry = _surface_note(pts, mask, coarse, origin_m=origin_m)
                 note = retry if retry.startswith("no ground surface") else ""
     if note:
         return GroundResult(np.zeros(n, dtype=bool), method, used, None, scene, note)
     if dtm is None:
+        if sampler is None or sampler.grid.cell_m != cell:
+            sampler = RasterSampler(aligned_grid(pts[:, :2], cell, origin_m), pts[:, :2])
         dtm = dtm_from_ground(pts, mask, cell, sampler=sampler)
     if scene is not None:
         slope = dtm.slope()[dtm.observed]

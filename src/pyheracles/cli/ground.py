@@ -31,6 +31,9 @@ _HELP = "\n\n".join(
         "  heracles ground site.laz --method smrf --dtm-cell 0.5 -o out/ground_smrf",
         "  heracles ground site.laz --max-object-size 60 -o out/ground",
         "  heracles ground scan.ply --crs EPSG:2154 -o out/ground",
+        "CLOUD may also be many tiles (a quoted glob, a folder, a tile index .gpkg): then "
+        "OUTDIR gets tiles/<tile>/ground.laz and dtm.tif per tile, dtm.vrt (the seamless "
+        "DTM mosaic) and tiles.gpkg, on Dask with --workers N or --scheduler ADDRESS.",
     ]
 )
 
@@ -121,7 +124,29 @@ def register(app: typer.Typer) -> None:
         force: Annotated[
             bool, typer.Option("--force", help="Write into a non-empty output folder.")
         ] = False,
+        workers: Annotated[
+            int | None, typer.Option("--workers", help="Tiles: local Dask worker processes.")
+        ] = None,
+        scheduler: Annotated[
+            str | None,
+            typer.Option("--scheduler", help="Tiles: address of a running Dask scheduler."),
+        ] = None,
+        tile_buffer: Annotated[
+            float | None,
+            typer.Option("--tile-buffer", help="Tiles: buffer in metres (auto: ground window)."),
+        ] = None,
     ) -> None:
+        from pyheracles.tiles import is_tile_source
+
+        if is_tile_source(cloud_path):  # many tiles: README "City scale"
+            from pyheracles.cli.tiles import ground_tiles
+
+            ground_tiles(
+                str(cloud_path), outdir, method=method, max_object_size_m=max_object_size_m,
+                dtm_cell_m=dtm_cell_m, cloud_crs=crs, workers=workers, scheduler=scheduler,
+                buffer_m=tile_buffer,
+            )  # fmt: skip
+            return
         from dataclasses import replace
 
         from rich.table import Table

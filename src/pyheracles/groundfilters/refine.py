@@ -51,6 +51,10 @@ class RefineParams:
         rarely far above it.
     iterations
         Number of rebuild-and-retest passes (3).
+    sigma_m
+        Robust standard deviation of the seed residuals to use in each pass, metres;
+        empty (the default) = measured on the cloud in every pass.  Given when tiles of
+        one survey must share the measure of the whole survey (:mod:`pyheracles.tiles`).
 
     Notes
     -----
@@ -66,6 +70,7 @@ class RefineParams:
     slope_scalar: float = 0.6
     below_factor: float = 3.0
     iterations: int = 3
+    sigma_m: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("cell_m", "noise_factor", "min_threshold_m", "max_threshold_m"):
@@ -80,6 +85,8 @@ class RefineParams:
                 raise InputError(f"RefineParams.{name} must be >= 0, got {value!r}")
         if int(self.iterations) < 1:
             raise InputError(f"RefineParams.iterations must be >= 1, got {self.iterations!r}")
+        if not all(np.isfinite(v) and v >= 0 for v in self.sigma_m):
+            raise InputError(f"RefineParams.sigma_m must be >= 0 metres, got {self.sigma_m!r}")
 
 
 def _robust_sigma(values: NDArray[np.float64]) -> float:
@@ -129,7 +136,7 @@ def refine_ground(
     zrel = (z - zref).astype(sampler.dtype, copy=False)
     dtm: DTM | None = None
     sigma = float("nan")
-    for _ in range(int(p.iterations)):
+    for k in range(int(p.iterations)):
         if not mask.any():
             break
         idx = np.flatnonzero(mask)  # one scan of the mask, then fast gathers
@@ -137,7 +144,7 @@ def refine_ground(
         dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
         residual = sampler(dtm.z_m - zref)
         np.subtract(zrel, residual, out=residual)
-        sigma = _robust_sigma(residual[idx])
+        sigma = float(p.sigma_m[k]) if k < len(p.sigma_m) else _robust_sigma(residual[idx])
         base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
         threshold = sampler(dtm.slope())
         threshold *= p.slope_scalar * p.cell_m
