@@ -17,6 +17,7 @@ from pyheracles.errors import InputError
 
 MODELS = ("similarity", "rigid")
 STRATEGIES = ("independent", "free", "block")
+METHODS = ("auto", "panes", "global")
 
 
 def _check_choice(value: str, choices: tuple[str, ...], option: str) -> str:
@@ -83,6 +84,69 @@ def _pairs_for(tiepoints: list[Path], source: Path, target: Path):
     return pair_points(groups[src_key], groups[tgt_key])
 
 
+def _auto_panes(
+    src: Any, tgt: Any, method: str, pane_thickness: float, sp: Any
+) -> tuple[Any, str | None]:
+    """Pane tie points (``None`` when ``method`` is global or no pane hypothesis
+    verifies with ``method`` auto) and why the panes failed."""
+    from pyheracles.errors import EstimationError
+    from pyheracles.registration.tiepoints import TiePointParams, find_tie_points
+
+    if method == "global":
+        return None, None
+    try:
+        with progress.enabled(console), progress.stage("automatic tie points (panes)"):
+            tp = find_tie_points(
+                src, tgt, TiePointParams(pane_thickness_m=pane_thickness), similarity=sp
+            )
+    except (InputError, EstimationError) as exc:
+        if method == "panes":
+            raise
+        return None, str(exc).split(". Fix:")[0]
+    return tp, None
+
+
+def _global(src: Any, tgt: Any, source: Path, target: Path) -> Any:
+    """Markerless global registration; "no overlap" (InputError, exit 2) when it fails."""
+    from pyheracles.registration.global_registration import global_registration
+
+    with progress.enabled(console):
+        g = global_registration(src, tgt)
+    if not g.ok:
+        raise InputError(
+            f"{g.status}: {source.name} and {target.name} cannot be registered "
+            f"automatically ({g.reason}); no transform written",
+            hint="check that the clouds show the same part of the object, or give "
+            "--tiepoints or --init with --icp",
+        )
+    return g
+
+
+def _summary_line(method: str, summary: dict[str, Any]) -> str:
+    """``method global: overlap 57.4 %, 863 inliers, confidence 1.00``."""
+    parts = []
+    if summary.get("overlap") is not None:
+        parts.append(f"overlap {summary['overlap']:.1%}")
+    if summary.get("inliers") is not None:
+        parts.append(f"{summary['inliers']} inliers")
+    if summary.get("confidence") is not None:
+        parts.append(f"confidence {summary['confidence']:.2f}")
+    return f"method {method}" + (": " + ", ".join(parts) if parts else "")
+
+
+def _summary(res: Any, gres: Any, icp_res: Any) -> dict[str, Any]:
+    """Overlap, inliers and confidence of the registration (run.json and the printout)."""
+    out: dict[str, Any] = {"overlap": None, "inliers": None, "confidence": None}
+    if gres is not None:
+        out.update(overlap=gres.overlap, inliers=gres.inliers, confidence=gres.confidence)
+    elif res is not None:
+        out["inliers"] = int(res.n_used)
+    if icp_res is not None:
+        out["overlap"] = icp_res.overlap_fraction if gres is None else out["overlap"]
+        out["icp_rms_point_to_plane_m"] = icp_res.rms_point_to_plane_m
+    return out
+
+
 def register(app: typer.Typer) -> None:
     """Add ``heracles register``, ``georef`` and ``checkpoints``."""
 
@@ -99,28 +163,51 @@ def register(app: typer.Typer) -> None:
             help="Tie points: one CSV with columns id,cloud,X,Y,Z (cloud = source/target) "
             "or two CSVs (source frame, target frame) with id,X,Y,Z[,sX,sY,sZ].",
         ),
-        auto: bool = typer.Option(False, "--auto", help="Automatic tie points (window panes)."),
+        auto: bool = typer.Option(
+            False, "--auto", help="Automatic registration (see --method), no tie points."
+        ),
+        method: str = typer.Option(
+            None, "--method",
+            help="Automatic method (implies --auto): auto (window panes, else markerless "
+            "global registration), panes, or global.",
+        ),
+        init: Path = typer.Option(
+            None, "--init", help="Initial transform (transform.json) for --icp, no tie points."
+        ),
         model: str = typer.Option("similarity", help="similarity (7 p) or rigid (6 p)."),
         estimator: str = typer.Option("danish", help="lsq, danish, l1, huber or tukey."),
-        icp: bool = typer.Option(False, "--icp", help="Refine with point-to-plane ICP."),
+        icp: bool = typer.Option(
+            False, "--icp", help="Refine with point-to-plane ICP (from the tie points, the "
+            "automatic solution or --init)."
+        ),
         pane_thickness: float = typer.Option(0.02, help="Glass thickness for --auto, m."),
         crs: str = typer.Option(
             None, "--crs", help="CRS of the target frame (default: TARGET's), e.g. EPSG:2154."
         ),
         force: bool = typer.Option(False, help="Write into a non-empty output folder."),
     ) -> None:
-        """Register SOURCE onto TARGET from tie points (manual or automatic).
+        """Register SOURCE onto TARGET: tie points, automatic, or ICP from --init.
+
+        --auto first looks for window-pane tie points; when no pane hypothesis
+        verifies it falls back to markerless global registration (FPFH features,
+        robust consensus, ICP), which needs no initial pose.  Clouds that do not
+        overlap enough stop with "no overlap" (exit code 2) and nothing is written.
 
         Writes into OUT: transform.json (4x4 T_target_source with parameters and
-        standard deviations, target CRS), SOURCE_registered.laz (the source cloud in
-        the target frame, with TARGET's CRS or --crs), tiepoints.csv (tie points with
-        their residuals) and run.json.
+        standard deviations or the global registration report, target CRS),
+        SOURCE_registered.laz (the source cloud in the target frame, with TARGET's
+        CRS or --crs), tiepoints.csv (tie points with their residuals, when tie
+        points were used) and run.json.
 
         Examples:
 
             heracles register interior.laz exterior.laz --tiepoints ties.csv -o reg/
 
             heracles register interior.laz exterior.laz --auto --icp -o reg/
+
+            heracles register scan2.laz scan1.laz --method global -o reg/
+
+            heracles register scan2.laz scan1.laz --init reg/transform.json --icp -o reg2/
         """
         from dataclasses import replace
 
@@ -129,12 +216,23 @@ def register(app: typer.Typer) -> None:
         from pyheracles.provenance import write_run_json
         from pyheracles.registration.icp import icp as run_icp
         from pyheracles.registration.similarity import SimilarityParams, estimate_similarity
-        from pyheracles.registration.tiepoints import TiePointParams, find_tie_points
-        from pyheracles.registration.transform import apply_to_cloud, write_transform_json
+        from pyheracles.registration.transform import (
+            apply_to_cloud,
+            read_transform_json,
+            write_transform_json,
+        )
 
         _check_choice(model, MODELS, "--model")
-        if bool(tiepoints) == auto:
-            raise InputError("give either --tiepoints CSV or --auto (exactly one)")
+        if method is not None:
+            _check_choice(method, METHODS, "--method")
+            auto = True
+        if sum((bool(tiepoints), auto, init is not None)) != 1:
+            raise InputError(
+                "give exactly one of --tiepoints CSV, --auto (or --method) and --init T.json"
+            )
+        if init is not None and not icp:
+            raise InputError("--init gives the start of ICP: add --icp")
+        T_init = read_transform_json(init) if init is not None else None
         given_crs = parse_crs_option(crs)
         sp = SimilarityParams(with_scale=model == "similarity", estimator=estimator)
         timings: dict[str, float] = {}
@@ -146,24 +244,43 @@ def register(app: typer.Typer) -> None:
         out_crs, notes = _output_crs(given_crs, tgt.crs, f"TARGET {target.name}")
         t = time.perf_counter()
         extra: dict[str, Any] = {}
+        res = gres = None
+        used = "tie points" if tiepoints else "init" if init is not None else "panes"
+        ids: list[str] = []
         if auto:
-            with progress.enabled(console), progress.stage("automatic tie points (panes)"):
-                tp = find_tie_points(
-                    src, tgt, TiePointParams(pane_thickness_m=pane_thickness), similarity=sp
-                )
-            ids, a, b = tp.source.ids, tp.source.xyz, tp.target.xyz
-            sa = sb = None
-            extra["automatic_tie_points"] = {
-                k: v for k, v in tp.to_dict().items() if k != "similarity"
-            }
-        else:
+            tp, pane_failure = _auto_panes(src, tgt, method or "auto", pane_thickness, sp)
+            if tp is not None:
+                ids, a, b = tp.source.ids, tp.source.xyz, tp.target.xyz
+                sa = sb = None
+                extra["automatic_tie_points"] = {
+                    k: v for k, v in tp.to_dict().items() if k != "similarity"
+                }
+            else:
+                used = "global"
+                if pane_failure:
+                    extra["panes_failed"] = pane_failure
+                    err_console.print(
+                        f"[yellow]note:[/] no verified window panes ({pane_failure}); "
+                        "trying markerless global registration", highlight=False
+                    )  # fmt: skip
+                gres = _global(src, tgt, source, target)
+                extra["global_registration"] = gres.to_dict()
+        elif tiepoints:
             pairs = _pairs_for(tiepoints, source, target)
             ids, a, b, sa, sb = pairs.ids, pairs.a, pairs.b, pairs.sigma_a, pairs.sigma_b
-        res = estimate_similarity(a, b, sp, source_sigma=sa, target_sigma=sb, ids=ids)
-        T = res.T_target_source
-        timings["tie_points"] = time.perf_counter() - t
+        if used in ("tie points", "panes"):
+            res = estimate_similarity(a, b, sp, source_sigma=sa, target_sigma=sb, ids=ids)
+            T = res.T_target_source
+        elif gres is not None:
+            T = gres.T_target_source
+        else:
+            T = T_init
+        timings["tie_points" if res is not None else used] = time.perf_counter() - t
         icp_res = None
-        if icp:
+        if icp and gres is not None and gres.icp is not None:
+            icp_res = gres.icp  # the global solution is already refined by the same ICP
+            extra["icp"] = icp_res.to_dict()
+        elif icp:
             t = time.perf_counter()
             with progress.enabled(console), progress.stage("ICP refinement"):
                 icp_res = run_icp(src, tgt, T)
@@ -173,40 +290,49 @@ def register(app: typer.Typer) -> None:
         t = time.perf_counter()
         with output_dir(out, force=force) as stage, progress.enabled(console):
             write_transform_json(
-                stage / "transform.json", T, source=str(source), target=str(target), result=res,
-                extra={**extra, "target_crs": _crs_text(out_crs)},
+                stage / "transform.json", T, source=str(source), target=str(target),
+                result=res if res is not None else gres,
+                extra={**extra, "method": used, "target_crs": _crs_text(out_crs)},
             )  # fmt: skip
             moved = replace(apply_to_cloud(src, T, crs=out_crs), source=str(source))
             suffix = source.suffix.lower() if source.suffix.lower() in (".las", ".laz") else ".laz"
             with progress.stage("writing the registered cloud"):
                 write_cloud(moved, stage / f"{source.stem}_registered{suffix}")
-            rows = ["id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"]
-            for i in range(len(ids)):
-                v = res.residuals[i]
-                rows.append(
-                    f"{ids[i]},{a[i, 0]:.4f},{a[i, 1]:.4f},{a[i, 2]:.4f},{b[i, 0]:.4f},"
-                    f"{b[i, 1]:.4f},{b[i, 2]:.4f},{v[0]:.4f},{v[1]:.4f},{v[2]:.4f},"
-                    f"{int(res.outliers[i])}"
-                )
-            atomic_write_text(stage / "tiepoints.csv", "\n".join(rows) + "\n")
+            if res is not None:
+                rows = [
+                    "id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"
+                ]
+                for i in range(len(ids)):
+                    v = res.residuals[i]
+                    rows.append(
+                        f"{ids[i]},{a[i, 0]:.4f},{a[i, 1]:.4f},{a[i, 2]:.4f},{b[i, 0]:.4f},"
+                        f"{b[i, 1]:.4f},{b[i, 2]:.4f},{v[0]:.4f},{v[1]:.4f},{v[2]:.4f},"
+                        f"{int(res.outliers[i])}"
+                    )
+                atomic_write_text(stage / "tiepoints.csv", "\n".join(rows) + "\n")
             timings["write"] = time.perf_counter() - t
+            summary = _summary(res, gres, icp_res)
             write_run_json(
                 stage, step="register", parameters=sp,
-                inputs=[source, target, *(tiepoints or [])], timings=timings,
+                inputs=[source, target, *(tiepoints or []), *([init] if init else [])],
+                timings=timings,
                 counts={"points_source": len(src), "points_target": len(tgt),
-                        "tie_points": len(ids), "outliers": int(res.outliers.sum())},
-                extra={"sigma0": res.sigma0, "rms_m": res.rms(), "crs": _crs_text(out_crs),
-                       "notes": notes},
+                        "tie_points": len(ids),
+                        "outliers": int(res.outliers.sum()) if res is not None else 0},
+                extra={"method": used, **summary, "crs": _crs_text(out_crs), "notes": notes,
+                       **({"sigma0": res.sigma0, "rms_m": res.rms()} if res is not None else {})},
             )  # fmt: skip
             print_run_warnings(stage)
-        console.print(_parameter_table(f"{source.name} -> {target.name}", res))
+        if res is not None:
+            console.print(_parameter_table(f"{source.name} -> {target.name}", res))
+        console.print(_summary_line(used, summary))
         if icp_res is not None:
             console.print(
                 f"ICP: converged={icp_res.converged}, {icp_res.iterations} iterations, "
                 f"overlap {icp_res.overlap_fraction:.1%}, RMS point-to-plane "
                 f"{icp_res.rms_point_to_plane_m * 1000:.1f} mm"
             )
-        for i in np.flatnonzero(res.outliers):
+        for i in np.flatnonzero(res.outliers) if res is not None else []:
             console.print(f"[yellow]outlier:[/] tie point {ids[i]} ({res.residual_3d[i]:.3f} m)")
         console.print(f"[green]wrote[/] {out}")
 

@@ -1,0 +1,104 @@
+"""Compiled (numba) kernels of the sign-invariant FPFH descriptor.
+
+The numpy version of :func:`pyheracles.registration.features.fpfh_descriptors`
+materialises about ten ``(pairs, 3)`` temporaries (400 000 pairs for 5 000
+points); this kernel walks each neighbour list once.  ``cache=True`` keeps the
+compiled code between runs.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
+    # as in pyheracles.geometry._knn_kernels: numba tries TBB first and warns when the
+    # system's TBB is too old (the tests turn warnings into errors)
+    numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
+
+
+@njit(cache=True, parallel=True)
+def spfh_kernel(xyz, normals, nb, dist, bins):  # pragma: no cover - compiled
+    """Simplified point feature histograms (three angle histograms, each summing to 1).
+
+    ``nb``/``dist``: ``(n, k)`` neighbour indices and distances (``index >= n`` or
+    ``dist`` not finite: no neighbour; distance 0: the point itself, skipped).
+    """
+    n, k = nb.shape
+    out = np.zeros((n, 3 * bins))
+    counts = np.zeros(n)
+    for i in prange(n):
+        ux0, ux1, ux2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        c = 0.0
+        for q in range(k):
+            j = nb[i, q]
+            dd = dist[i, q]
+            if j >= n or not (dd > 1e-12) or not math.isfinite(dd):
+                continue
+            d0 = (xyz[j, 0] - xyz[i, 0]) / dd
+            d1 = (xyz[j, 1] - xyz[i, 1]) / dd
+            d2 = (xyz[j, 2] - xyz[i, 2]) / dd
+            u0, u1, u2 = ux0, ux1, ux2
+            if u0 * d0 + u1 * d1 + u2 * d2 < 0:
+                u0, u1, u2 = -u0, -u1, -u2
+            t0, t1, t2 = normals[j, 0], normals[j, 1], normals[j, 2]
+            if t0 * u0 + t1 * u1 + t2 * u2 < 0:
+                t0, t1, t2 = -t0, -t1, -t2
+            v0 = u1 * d2 - u2 * d1
+            v1 = u2 * d0 - u0 * d2
+            v2 = u0 * d1 - u1 * d0
+            vn = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            if vn > 1e-12:
+                v0, v1, v2 = v0 / vn, v1 / vn, v2 / vn
+            w0 = u1 * v2 - u2 * v1
+            w1 = u2 * v0 - u0 * v2
+            w2 = u0 * v1 - u1 * v0
+            alpha = v0 * t0 + v1 * t1 + v2 * t2
+            phi = u0 * d0 + u1 * d1 + u2 * d2
+            theta = math.atan2(w0 * t0 + w1 * t1 + w2 * t2, u0 * t0 + u1 * t1 + u2 * t2)
+            b1 = min(max(int((alpha + 1.0) * 0.5 * bins), 0), bins - 1)
+            b2 = min(max(int(phi * bins), 0), bins - 1)
+            b3 = min(max(int((theta + 0.5 * math.pi) / math.pi * bins), 0), bins - 1)
+            out[i, b1] += 1.0
+            out[i, bins + b2] += 1.0
+            out[i, 2 * bins + b3] += 1.0
+            c += 1.0
+        counts[i] = c
+        if c > 0:
+            for b in range(3 * bins):
+                out[i, b] /= c
+    return out, counts
+
+
+@njit(cache=True, parallel=True)
+def fpfh_kernel(spfh, counts, nb, dist, floor):  # pragma: no cover - compiled
+    """FPFH = SPFH(p) + neighbours' SPFH weighted by ``1 / max(d, floor)``, L1-normalised."""
+    n, k = nb.shape
+    m = spfh.shape[1]
+    out = np.zeros((n, m))
+    for i in prange(n):
+        if counts[i] == 0:
+            continue
+        wsum = 0.0
+        for q in range(k):
+            j = nb[i, q]
+            dd = dist[i, q]
+            if j >= n or not (dd > 1e-12) or not math.isfinite(dd):
+                continue
+            w = 1.0 / max(dd, floor)
+            wsum += w
+            for b in range(m):
+                out[i, b] += w * spfh[j, b]
+        total = 0.0
+        for b in range(m):
+            v = spfh[i, b] + (out[i, b] / wsum if wsum > 0 else 0.0)
+            out[i, b] = v
+            total += v
+        if total > 0:
+            for b in range(m):
+                out[i, b] /= total
+    return out

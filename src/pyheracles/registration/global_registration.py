@@ -1,0 +1,624 @@
+"""Markerless global registration of two overlapping clouds in arbitrary poses.
+
+No tie points, no initial transform: the clouds may be in any relative
+rotation and translation.  The pipeline (Rusu et al. 2009; Zhou, Park & Koltun
+2016; Yang, Shi & Carlone 2020):
+
+1. **Scale.**  One voxel size for both clouds, from the occupied surface and the
+   measured point spacing (:func:`~pyheracles.registration.features.choose_voxel`):
+   about ``target_points`` voxels per cloud, never below twice the spacing.
+2. **Descriptors.**  Voxel centroids, PCA normals of ``normal_neighbours``
+   neighbours, sign-invariant FPFH at ``feature_radius_voxels`` voxels
+   (:mod:`~pyheracles.registration.features`).
+3. **Matching.**  Mutual nearest neighbours in descriptor space (Hellinger
+   distance: square roots of the histograms), optionally with Lowe's ratio
+   test; one-way matches are added when too few are mutual.
+4. **Robust estimation.**  Pairwise length-consistency graph and graph-guided
+   RANSAC (:mod:`~pyheracles.registration.consensus`): survives 95-99 % wrong
+   matches; several distinct hypotheses are kept.
+5. **Verification.**  Every hypothesis is refined by a short point-to-plane ICP
+   on the *full* clouds and scored by the share of source points within a fine
+   gate (3 x spacing) of the target; the best is refined by the full
+   robust (Tukey) ICP of :mod:`~pyheracles.registration.icp`.
+6. **Decision.**  The result is accepted only when the overlap share, the
+   consensus (against the clique size expected by chance), the geometric
+   conditioning of the overlap (the six motions must all be constrained) and
+   the margin over the best *different* pose are all sufficient.  Otherwise the
+   status says why (``"no overlap"`` or ``"ambiguous"``) and the caller must
+   not use the transform.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+from pyheracles import progress
+from pyheracles.cloud import PointCloud
+from pyheracles.errors import EstimationError, InputError
+from pyheracles.geometry.neighbours import point_spacing
+from pyheracles.registration.consensus import (
+    ConsensusParams,
+    RigidHypothesis,
+    robust_rigid,
+    rotation_angle_deg,
+)
+from pyheracles.registration.features import (
+    choose_voxel,
+    fpfh_descriptors,
+    unoriented_normals,
+    voxel_downsample,
+)
+from pyheracles.registration.icp import ICPParams, ICPResult, estimate_normals, icp
+
+__all__ = [
+    "GlobalRegistrationParams",
+    "GlobalRegistrationResult",
+    "global_registration",
+    "match_descriptors",
+    "motion_conditioning",
+]
+
+#: Statuses of :class:`GlobalRegistrationResult`.
+STATUSES = ("ok", "no overlap", "ambiguous")
+
+
+@dataclass(frozen=True)
+class GlobalRegistrationParams:
+    """Parameters of :func:`global_registration`.
+
+    Attributes
+    ----------
+    voxel_m
+        Voxel size, metres; ``None``: from the clouds (about ``target_points``
+        voxels each, at least ``2 x`` the larger point spacing).
+    target_points
+        Downsampled points per cloud when ``voxel_m`` is ``None``.
+    normal_neighbours
+        Neighbours for the PCA normals of the downsampled points.
+    feature_radius_voxels
+        FPFH support radius, voxels.
+    feature_max_neighbours
+        At most this many neighbours per FPFH.
+    ratio
+        Lowe's ratio test on descriptor distances (``None``: off; e.g. 0.9).
+    min_mutual
+        When fewer mutual matches than this exist, one-way matches are added.
+    max_correspondences
+        Correspondences kept for the estimator (the most distinctive by ratio).
+    inlier_voxels
+        Correspondence inlier distance, voxels.
+    hypotheses
+        Distinct hypotheses verified on the clouds.
+    gate_spacings
+        Fine gate of the overlap share, multiples of the target point spacing.
+    min_overlap
+        Smallest overlap share (of the smaller cloud's points within the gate)
+        accepted.
+    min_inliers
+        Smallest consensus set accepted.
+    min_significance
+        The consensus must be at least this multiple of the clique size expected
+        by chance (:func:`~pyheracles.registration.consensus.null_clique_size`).
+    min_conditioning
+        Smallest ratio of the weakest to the strongest motion constraint of the
+        overlap (:func:`motion_conditioning`): below it a plane, a cylinder or a
+        sphere leaves the pose undetermined.
+    min_margin
+        The best pose's overlap must exceed that of the best *different* pose by
+        this share of itself (``1 - second / best``), else ``"ambiguous"`` when that
+        pose's own consensus is beyond chance (or the chosen one's does not stand
+        out against it).
+    finer_retries
+        Multiples of ``target_points`` tried in turn until one is accepted (with
+        ``voxel_m`` given: that voxel only).  Large scenes (a building rather than an
+        object) need finer voxels than 5 000 per cloud to keep their details.
+    rival_share
+        ``"ambiguous"`` when a different pose (sharing less than half of its matches
+        with the chosen one) has at least this share of the chosen pose's consistent
+        matches and is itself beyond chance: symmetric or repeated structure.
+    seed
+        Seed of every random choice.
+    """
+
+    voxel_m: float | None = None
+    target_points: int = 5_000
+    normal_neighbours: int = 16
+    feature_radius_voxels: float = 5.0
+    feature_max_neighbours: int = 100
+    ratio: float | None = None
+    min_mutual: int = 200
+    max_correspondences: int = 5_000
+    inlier_voxels: float = 1.5
+    hypotheses: int = 6
+    gate_spacings: float = 3.0
+    min_overlap: float = 0.10
+    min_inliers: int = 8
+    min_significance: float = 4.0
+    min_conditioning: float = 0.01
+    min_margin: float = 0.5
+    rival_share: float = 0.5
+    finer_retries: tuple[float, ...] = (1.0, 4.0)
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.voxel_m is not None and not (self.voxel_m > 0 and np.isfinite(self.voxel_m)):
+            raise InputError(f"voxel_m must be a positive number, got {self.voxel_m}")
+        if self.target_points < 100:
+            raise InputError(f"target_points must be at least 100, got {self.target_points}")
+        if self.ratio is not None and not 0 < self.ratio <= 1:
+            raise InputError(f"ratio must be in (0, 1], got {self.ratio}")
+        if not 0 < self.min_overlap < 1:
+            raise InputError(f"min_overlap must be in (0, 1), got {self.min_overlap}")
+        if not self.finer_retries or min(self.finer_retries) <= 0:
+            raise InputError("finer_retries must be a non-empty list of positive multiples")
+        if self.hypotheses < 1 or self.max_correspondences < 3:
+            raise InputError("hypotheses must be >= 1 and max_correspondences >= 3")
+
+
+@dataclass(frozen=True, eq=False)
+class GlobalRegistrationResult:
+    """Result of :func:`global_registration`.
+
+    ``T_target_source`` (4x4, world source -> world target) is only meaningful
+    when :attr:`ok`; otherwise ``status`` and ``reason`` say why it was rejected.
+    """
+
+    T_target_source: NDArray[np.float64]
+    status: str
+    reason: str
+    overlap: float  # max of the two shares: the smaller cloud's covered part
+    overlap_source: float
+    overlap_target: float
+    inliers: int
+    correspondences: int
+    mutual_matches: int
+    significance: float  # inliers / clique size expected by chance
+    conditioning: float
+    margin: float  # 1 - (overlap of the best different pose) / overlap
+    confidence: float
+    voxel_m: float
+    points_downsampled: tuple[int, int]
+    icp: ICPResult | None
+    timings: dict[str, float] = field(default_factory=dict)
+    hypotheses: list[dict[str, Any]] = field(default_factory=list)
+    attempts: list[dict[str, Any]] = field(default_factory=list)  # one per voxel size tried
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "method": "global (FPFH + consistency-graph RANSAC + point-to-plane ICP)",
+            "status": self.status,
+            "reason": self.reason,
+            "T_target_source": self.T_target_source.tolist(),
+            "overlap": self.overlap,
+            "overlap_source": self.overlap_source,
+            "overlap_target": self.overlap_target,
+            "inliers": self.inliers,
+            "correspondences": self.correspondences,
+            "mutual_matches": self.mutual_matches,
+            "significance": self.significance,
+            "conditioning": self.conditioning,
+            "margin": self.margin,
+            "confidence": self.confidence,
+            "voxel_m": self.voxel_m,
+            "points_downsampled": list(self.points_downsampled),
+            "icp": None if self.icp is None else self.icp.to_dict(),
+            "timings_s": self.timings,
+            "hypotheses": self.hypotheses,
+            "attempts": self.attempts,
+        }
+
+
+def _as_cloud(c: PointCloud | ArrayLike, what: str) -> PointCloud:
+    if isinstance(c, PointCloud):
+        return c.validate(what=what)
+    return PointCloud(xyz=np.asarray(c, dtype=np.float64)).validate(what=what)
+
+
+def _two_nearest(
+    x: NDArray[np.float64], y: NDArray[np.float64], rows: int = 2048
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Distances and indices of the (up to) two nearest rows of ``y`` for every row of ``x``.
+
+    Brute force by blocks of matrix products (float32, ``|x - y|^2 = |x|^2 + |y|^2 -
+    2 x.y``, ranked by ``x.y - |y|^2 / 2``): for a few thousand descriptors of 33
+    dimensions several times faster than a k-d tree, which degrades to a linear
+    scan in that many dimensions anyway.
+    """
+    k = min(2, len(y))
+    yf = np.ascontiguousarray(y, dtype=np.float32)
+    half_y2 = 0.5 * np.einsum("ij,ij->i", yf, yf)
+    d_out = np.empty((len(x), k))
+    j_out = np.empty((len(x), k), dtype=np.intp)
+    for s in range(0, len(x), rows):
+        xf = np.ascontiguousarray(x[s : s + rows], dtype=np.float32)
+        score = xf @ yf.T
+        score -= half_y2[None, :]
+        r = np.arange(len(xf))
+        for c in range(k):
+            j = score.argmax(axis=1)
+            j_out[s : s + rows, c] = j
+            d_out[s : s + rows, c] = score[r, j]
+            score[r, j] = -np.inf
+        x2 = np.einsum("ij,ij->i", xf, xf).astype(np.float64)
+        d_out[s : s + rows] = x2[:, None] - 2.0 * d_out[s : s + rows]
+    np.sqrt(np.maximum(d_out, 0.0), out=d_out)
+    return d_out, j_out
+
+
+def match_descriptors(
+    fs: NDArray[np.float64],
+    ft: NDArray[np.float64],
+    *,
+    ratio: float | None = None,
+    min_mutual: int = 200,
+    max_matches: int = 5_000,
+) -> tuple[NDArray[np.intp], NDArray[np.intp], int]:
+    """Putative correspondences between two descriptor sets.
+
+    Mutual nearest neighbours (Euclidean on the given vectors, brute force);
+    with ``ratio`` only those passing Lowe's test; when fewer than
+    ``min_mutual`` remain, the one-way matches of both directions are added.
+    The ``max_matches`` with the smallest distance ratio are kept.
+
+    Returns
+    -------
+    source_index, target_index, n_mutual
+    """
+    ds, js = _two_nearest(fs, ft)
+    dt, jt = _two_nearest(ft, fs)
+
+    def lowe(d: NDArray[np.float64]) -> NDArray[np.float64]:
+        if d.shape[1] < 2:
+            return np.zeros(len(d))
+        return d[:, 0] / np.maximum(d[:, 1], 1e-12)
+
+    rs, rt = lowe(ds), lowe(dt)
+    s2t, t2s = js[:, 0], jt[:, 0]
+    mutual = t2s[s2t] == np.arange(len(fs))
+    if ratio is not None:
+        mutual &= (rs < ratio) & (rt[s2t] < ratio)
+    src = np.flatnonzero(mutual)
+    tgt = s2t[src]
+    score = rs[src]
+    n_mutual = len(src)
+    if n_mutual < min_mutual:
+        one_s = np.flatnonzero(~mutual if ratio is None else (~mutual) & (rs < ratio))
+        one_t = np.flatnonzero(t2s >= 0 if ratio is None else rt < ratio)
+        one_t = one_t[s2t[t2s[one_t]] != one_t]  # the mutual ones are already in
+        src = np.concatenate([src, one_s, t2s[one_t]])
+        tgt = np.concatenate([tgt, s2t[one_s], one_t])
+        score = np.concatenate([score, rs[one_s] + 1.0, rt[one_t] + 1.0])  # mutual first
+        pair = np.unique(np.stack([src, tgt], axis=1), axis=0, return_index=True)[1]
+        src, tgt, score = src[pair], tgt[pair], score[pair]
+    if len(src) > max_matches:
+        keep = np.argsort(score, kind="stable")[:max_matches]
+        src, tgt = src[keep], tgt[keep]
+    return src, tgt, n_mutual
+
+
+def motion_conditioning(points: NDArray[np.float64], normals: NDArray[np.float64]) -> float:
+    """How well a set of surface points constrains the six motions (0 to 1).
+
+    The point-to-plane normal matrix ``J^T J`` with ``J = [(p - c) / r x n, n]``
+    (rotations scaled by the RMS radius ``r`` about the centroid ``c``, so both
+    blocks are dimensionless): the ratio of its smallest to its largest
+    eigenvalue.  About 0 for a plane (three free motions), a cylinder (two) or a
+    sphere (three), up to about 0.3 for a closed box.
+    """
+    if len(points) < 6:
+        return 0.0
+    c = points.mean(axis=0)
+    r = float(np.sqrt(np.mean(np.sum((points - c) ** 2, axis=1)))) or 1.0
+    J = np.hstack([np.cross((points - c) / r, normals), normals])
+    ev = np.linalg.eigvalsh(J.T @ J)
+    return float(max(ev[0], 0.0) / max(ev[-1], 1e-300))
+
+
+def _world(
+    R: NDArray[np.float64], t: NDArray[np.float64], off_s: NDArray[np.float64], off_t
+) -> NDArray[np.float64]:
+    """World T_target_source of a local motion ``x_t = R x_s + t``."""
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = off_t + t - R @ off_s
+    return T
+
+
+def _shares(
+    src: PointCloud,
+    tgt: PointCloud,
+    T: NDArray[np.float64],
+    gate: float,
+    tree_t: cKDTree,
+    tree_s: cKDTree,
+    rng: np.random.Generator,
+    sample: int = 30_000,
+    n_normals: int = 5_000,
+) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
+    """Shares of source (target) points within ``gate`` of the other cloud after ``T``,
+    and the overlapping source points (target local frame) with their target normals."""
+    R, t = T[:3, :3], T[:3, 3]
+    shift = R @ src.offset + t - tgt.offset  # source local -> target local
+    i_s = rng.choice(len(src), size=min(sample, len(src)), replace=False)
+    ps = src.xyz[i_s] @ R.T + shift
+    d, nn = tree_t.query(ps, k=1, distance_upper_bound=gate, workers=-1)
+    ok = np.isfinite(d)
+    i_t = rng.choice(len(tgt), size=min(sample, len(tgt)), replace=False)
+    pt = (tgt.xyz[i_t] - shift) @ R  # target local -> source local
+    d2, _ = tree_s.query(pt, k=1, distance_upper_bound=gate, workers=-1)
+    pts = ps[ok][:n_normals]
+    nrm = (
+        estimate_normals(tgt.xyz, tree_t, nn[ok][:n_normals], 12) if len(pts) else np.zeros((0, 3))
+    )
+    return float(ok.mean()), float(np.isfinite(d2).mean()), pts, nrm
+
+
+def global_registration(
+    source: PointCloud | ArrayLike,
+    target: PointCloud | ArrayLike,
+    params: GlobalRegistrationParams | None = None,
+) -> GlobalRegistrationResult:
+    """Register ``source`` onto ``target`` without tie points or an initial pose.
+
+    Parameters
+    ----------
+    source, target
+        Clouds (or ``(N, 3)`` arrays) in their own frames, any relative pose.
+    params
+        :class:`GlobalRegistrationParams`.
+
+    Returns
+    -------
+    GlobalRegistrationResult
+        Always returned; use the transform only when ``result.ok`` (status
+        ``"ok"``).  ``"no overlap"``: the clouds share too little surface (or no
+        consistent set of matches exists); ``"ambiguous"``: the overlap does not
+        fix the pose (a plane, a symmetric shape, two poses fitting as well).
+
+    Raises
+    ------
+    InputError
+        Empty clouds, NaN coordinates, fewer than 3 points, invalid parameters.
+    """
+    p = params or GlobalRegistrationParams()
+    src = _as_cloud(source, "source cloud")
+    tgt = _as_cloud(target, "target cloud")
+    if len(src) < 10 or len(tgt) < 10:
+        raise InputError(
+            f"global registration needs at least 10 points per cloud "
+            f"(source {len(src)}, target {len(tgt)})"
+        )
+    sp_s = point_spacing(src.xyz, rng=p.seed)
+    sp_t = point_spacing(tgt.xyz, rng=p.seed)
+    scales = (1.0,) if p.voxel_m is not None else p.finer_retries
+    res: GlobalRegistrationResult | None = None
+    attempts: list[dict[str, Any]] = []
+    for m in scales:
+        pm = replace(p, target_points=round(p.target_points * m))
+        res = _attempt(src, tgt, pm, sp_s, sp_t)
+        attempts.append({"voxel_m": res.voxel_m, "status": res.status, "reason": res.reason})
+        if res.status != "no overlap":
+            break  # accepted, or ambiguous (symmetric, degenerate: finer will not help)
+    assert res is not None
+    return replace(res, attempts=attempts)
+
+
+def _attempt(
+    src: PointCloud, tgt: PointCloud, p: GlobalRegistrationParams, sp_s: float, sp_t: float
+) -> GlobalRegistrationResult:
+    """One pass of :func:`global_registration` at the voxel size of ``p``."""
+    rng = np.random.default_rng(p.seed)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    with progress.stage("global registration: voxels, normals, FPFH"):
+        voxel = p.voxel_m or max(
+            choose_voxel(src.xyz, sp_s, p.target_points, rng=rng),
+            choose_voxel(tgt.xyz, sp_t, p.target_points, rng=rng),
+        )
+        ds, _ = voxel_downsample(src.xyz, voxel)
+        dt, _ = voxel_downsample(tgt.xyz, voxel)
+        if len(ds) < 10 or len(dt) < 10:  # one cloud is tiny at the other's scale
+            return GlobalRegistrationResult(
+                T_target_source=np.eye(4), status="no overlap",
+                reason=f"at a voxel of {voxel:.3g} m the clouds keep {len(ds)} and {len(dt)} "
+                "points: their sizes differ too much to share a surface",
+                overlap=0.0, overlap_source=0.0, overlap_target=0.0, inliers=0,
+                correspondences=0, mutual_matches=0, significance=0.0, conditioning=0.0,
+                margin=0.0, confidence=0.0, voxel_m=voxel,
+                points_downsampled=(len(ds), len(dt)), icp=None, timings=timings,
+            )  # fmt: skip
+        tree_ds, tree_dt = cKDTree(ds), cKDTree(dt)
+        ns = unoriented_normals(ds, p.normal_neighbours)
+        nt = unoriented_normals(dt, p.normal_neighbours)
+        radius = p.feature_radius_voxels * voxel
+        fs = fpfh_descriptors(ds, ns, radius, max_neighbours=p.feature_max_neighbours, tree=tree_ds)
+        ft = fpfh_descriptors(dt, nt, radius, max_neighbours=p.feature_max_neighbours, tree=tree_dt)
+    timings["features"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    with progress.stage("global registration: matching and consensus"):
+        i_s, i_t, n_mutual = match_descriptors(
+            np.sqrt(fs), np.sqrt(ft), ratio=p.ratio, min_mutual=p.min_mutual,
+            max_matches=p.max_correspondences,
+        )  # fmt: skip
+        cp = ConsensusParams(
+            inlier_m=p.inlier_voxels * voxel, max_hypotheses=p.hypotheses, seed=p.seed
+        )
+        hyps, stats = robust_rigid(ds[i_s], dt[i_t], cp)
+    timings["consensus"] = time.perf_counter() - t0
+    null = float(stats.get("null_clique", 1.0))
+    n_corr = len(i_s)
+    base: dict[str, Any] = {
+        "voxel_m": voxel,
+        "points_downsampled": (len(ds), len(dt)),
+        "correspondences": n_corr,
+        "mutual_matches": n_mutual,
+        "timings": timings,
+    }
+    inliers = hyps[0].n_inliers if hyps else 0
+    significance = inliers / max(null, 1.0)
+    if inliers < p.min_inliers or significance < p.min_significance:
+        reason = (
+            f"no consistent set of feature matches stands out: at best {inliers} of {n_corr} "
+            f"correspondences agree ({significance:.1f} x the {null:.0f} expected by chance; "
+            f"need {p.min_inliers} and {p.min_significance:.1f} x)"
+        )
+        return GlobalRegistrationResult(
+            T_target_source=np.eye(4), status="no overlap", reason=reason,
+            overlap=0.0, overlap_source=0.0, overlap_target=0.0, inliers=inliers,
+            significance=significance, conditioning=0.0, margin=0.0, confidence=0.0, icp=None,
+            **base,
+        )  # fmt: skip
+    t0 = time.perf_counter()
+    with progress.stage("global registration: verifying hypotheses (ICP)"):
+        # coarse score of every hypothesis on the downsampled clouds (1 voxel gate)
+        coarse = []
+        for h in hyps:
+            d, _ = tree_dt.query(ds @ h.R.T + h.t, k=1, distance_upper_bound=voxel, workers=-1)
+            coarse.append(float(np.isfinite(d).mean()))
+        order = np.argsort(coarse, kind="stable")[::-1]
+        h_best = hyps[order[0]]
+        c_s = ds.mean(axis=0)  # translations compared where the data are
+        rivals = [
+            hyps[q]
+            for q in order[1:]
+            if rotation_angle_deg(hyps[q].R, h_best.R) > cp.distinct_deg
+            or np.linalg.norm(hyps[q].R @ c_s + hyps[q].t - h_best.R @ c_s - h_best.t)
+            > 5.0 * cp.inlier_m
+        ]
+        tree_t = cKDTree(tgt.xyz, balanced_tree=False, compact_nodes=False)
+        tree_s = cKDTree(src.xyz, balanced_tree=False, compact_nodes=False)
+        gate = p.gate_spacings * max(sp_t, sp_s)
+        fine = ICPParams(
+            max_correspondence_m=max(gate, voxel), overlap_distance_m=gate,
+            samples=(5_000, 20_000, 60_000), tolerance=1e-5, min_overlap=0.01, seed=p.seed,
+        )  # fmt: skip
+        quick = replace(fine, samples=(2_000, 8_000), iterations_per_level=10,
+                        evaluation_samples=20_000)  # fmt: skip
+
+        def refine(h: RigidHypothesis, prm: ICPParams) -> tuple[float, Any]:
+            T0 = _world(h.R, h.t, src.offset, tgt.offset)
+            try:
+                r = icp(src, tgt, T0, prm, target_tree=tree_t)
+            except (InputError, EstimationError):
+                return 0.0, None
+            return r.overlap_fraction, r
+
+        second, second_inliers = 0.0, (rivals[0].n_inliers if rivals else 0)
+        if rivals:
+            # best and rival refined alike, so that their overlaps compare fairly
+            s1, r1 = refine(h_best, quick)
+            s2, r2 = refine(rivals[0], quick)
+            same_pose = (
+                r1 is not None
+                and r2 is not None
+                and rotation_angle_deg(r1.T_target_source[:3, :3], r2.T_target_source[:3, :3])
+                <= cp.distinct_deg
+                and np.linalg.norm(
+                    (r1.T_target_source[:3, :3] - r2.T_target_source[:3, :3]) @ (c_s + src.offset)
+                    + r1.T_target_source[:3, 3]
+                    - r2.T_target_source[:3, 3]
+                )
+                <= 5.0 * cp.inlier_m
+            )
+            if s2 > s1 and not same_pose:  # the rival fits better: it wins
+                h_best, rivals[0] = rivals[0], h_best
+                s1, s2 = s2, s1
+                second_inliers = rivals[0].n_inliers
+            second = 0.0 if same_pose else s2
+            quick_best = s1
+        best_score, final_icp = refine(h_best, fine)
+        if rivals:
+            best_score = quick_best  # the margin compares the two quick refinements
+        T = (
+            final_icp.T_target_source
+            if final_icp is not None
+            else _world(h_best.R, h_best.t, src.offset, tgt.offset)
+        )
+        ov_s, ov_t, pts, nrm = _shares(src, tgt, T, gate, tree_t, tree_s, rng)
+    timings["verification"] = time.perf_counter() - t0
+    hyp_report = [
+        {"inliers": h.n_inliers, "samples_supporting": h.n_samples_supporting,
+         "coarse_overlap": c, "chosen": h is h_best, "rival": bool(rivals) and h is rivals[0]}
+        for h, c in zip(hyps, coarse, strict=True)
+    ]  # fmt: skip
+    # the larger of the two shares: a small cloud inside a large one overlaps fully
+    overlap = max(ov_s, ov_t)
+    cond = motion_conditioning(pts, nrm)
+    inliers = h_best.n_inliers
+    significance = inliers / max(null, 1.0)
+    margin = 1.0 - second / best_score if best_score > 0 else 0.0
+    # does the consensus stand out against the best different pose?
+    stands_out = inliers >= p.min_significance * max(null, second_inliers, 1.0)
+    # the strongest different pose by its own matches (one sharing most of its matches
+    # with the chosen pose is a variant of it, not a rival)
+    rival_inliers = max(
+        [h.n_inliers for h in hyps
+         if h is not h_best and (h.inliers & h_best.inliers).sum() < 0.5 * h.n_inliers],
+        default=0,
+    )  # fmt: skip
+    rival_strong = rival_inliers >= max(
+        p.min_significance * null, p.rival_share * inliers, p.min_inliers
+    )
+    if significance < p.min_significance or inliers < p.min_inliers:
+        status = "no overlap"
+        reason = (
+            f"the best-fitting pose has only {inliers} consistent matches "
+            f"({significance:.1f} x the {null:.0f} expected by chance; need "
+            f"{p.min_inliers} and {p.min_significance:.1f} x)"
+        )
+    elif overlap < p.min_overlap or final_icp is None:
+        status = "no overlap"
+        reason = (
+            f"the best alignment covers only {overlap:.1%} of the points within "
+            f"{gate:.3g} m (need {p.min_overlap:.0%})"
+        )
+    elif rival_strong:
+        status = "ambiguous"
+        reason = (
+            f"two different poses are each supported by many consistent matches ({inliers} "
+            f"and {rival_inliers}): symmetric or repeated structure"
+        )
+    elif margin < p.min_margin and (
+        not stands_out or second_inliers >= p.min_significance * null
+    ):
+        status = "ambiguous"
+        reason = (
+            f"no pose stands out: {inliers} consistent matches against {second_inliers} for a "
+            f"different pose, overlap {best_score:.1%} against {second:.1%}"
+        )
+    elif cond < p.min_conditioning:
+        status = "ambiguous"
+        reason = (
+            f"the overlap does not fix all six motions (conditioning {cond:.2g} < "
+            f"{p.min_conditioning:.2g}: planar, cylindrical or spherical)"
+        )
+    elif margin < p.min_margin:
+        status = "ambiguous"
+        reason = (
+            f"a different pose fits almost as well (overlap {second:.1%} against "
+            f"{best_score:.1%}; margin {margin:.2f} < {p.min_margin:.2f})"
+        )
+    else:
+        status, reason = "ok", ""
+    confidence = float(
+        np.clip(overlap / (2 * p.min_overlap), 0, 1)
+        * np.clip((significance - 1) / (2 * p.min_significance - 1), 0, 1)
+        * np.clip(cond / (2 * p.min_conditioning), 0, 1)
+        * np.clip(margin / (2 * p.min_margin), 0, 1)
+    )
+    return GlobalRegistrationResult(
+        T_target_source=T, status=status, reason=reason, overlap=overlap,
+        overlap_source=ov_s, overlap_target=ov_t, inliers=inliers,
+        significance=significance, conditioning=cond, margin=margin, confidence=confidence,
+        icp=final_icp, hypotheses=hyp_report, **base,
+    )  # fmt: skip
