@@ -49,8 +49,8 @@ def read_project(path: str | Path) -> Project:
             raise InputError(
                 "binary COLMAP model (images.bin): only the text format is read",
                 path=path,
-                hint=f"colmap model_converter --input_path {path} --output_path {path} "
-                "--output_type TXT",
+                hint=f"colmap model_converter --output_type TXT, with this folder ({path}) "
+                "as input and output path",
             )
         raise InputError(
             "folder is not a COLMAP text model (no images.txt)",
