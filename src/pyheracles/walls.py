@@ -705,25 +705,23 @@ def _refine_edges(
         if hi_z - lo_z < 2 * c:  # too short a band: the grid edges stand
             return u0, u1, *_refine_z(uz, u0, u1, z0, z1, c, at_foot)
     band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < hi_z)
-    left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c), 0]
-    right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c), 0]
+    left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c)]
+    right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c)]
     if len(left) >= 5 and len(right) >= 5:
         if jambs is None:
-            u0, u1 = float(np.percentile(left, 99.5)), float(np.percentile(right, 0.5))
+            u0, u1 = float(np.percentile(left[:, 0], 99.5)), float(np.percentile(right[:, 0], 0.5))
         else:  # per row of the band the innermost point, then the median over the rows
-            u0 = _row_median(uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c)], c, max)
-            u1 = _row_median(uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c)], c, min)
+            u0, u1 = _row_median(left, c, np.maximum), _row_median(right, c, np.minimum)
     return u0, u1, *_refine_z(uz, u0, u1, z0, z1, c, at_foot)
 
 
-def _row_median(uz: Array, c: float, pick: Any) -> float:
-    """Median over rows of height ``c`` of the innermost ``u`` of each row (``pick``)."""
+def _row_median(uz: Array, c: float, innermost: np.ufunc) -> float:
+    """Median over rows of height ``c`` of the innermost ``u`` of each row."""
     rows = np.floor(uz[:, 1] / c).astype(np.int64)
     order = np.argsort(rows, kind="stable")
     r, u = rows[order], uz[order, 0]
     starts = np.flatnonzero(np.r_[True, np.diff(r) != 0])
-    reduce = np.maximum if pick is max else np.minimum
-    return float(np.median(reduce.reduceat(u, starts)))
+    return float(np.median(innermost.reduceat(u, starts)))
 
 
 def _refine_z(
