@@ -576,16 +576,9 @@ def _selections(
 
 def _add_warnings(run_json: Path, warnings: Sequence[str]) -> None:
     """Append warnings found after step 1 to its ``run.json`` (shown by the CLI)."""
-    import json
+    from pyheracles.provenance import add_to_run_json
 
-    from pyheracles.io.atomic import atomic_write_json
-
-    try:
-        record = json.loads(Path(run_json).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return
-    record["warnings"] = [*record.get("warnings", []), *warnings]
-    atomic_write_json(run_json, record)
+    add_to_run_json(run_json, "warnings", warnings)
 
 
 def safe_folder_name(name: str) -> str:

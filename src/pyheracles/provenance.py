@@ -12,13 +12,13 @@ import datetime as _dt
 import hashlib
 import platform
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from pyheracles.io.atomic import atomic_write_json
 
-__all__ = ["describe_file", "write_run_json"]
+__all__ = ["add_to_run_json", "describe_file", "write_run_json"]
 
 RUN_JSON = "run.json"
 
@@ -90,3 +90,21 @@ def write_run_json(
     }
     record.update(_plain(dict(extra or {})))
     return atomic_write_json(out / RUN_JSON, record)
+
+
+def add_to_run_json(
+    run_json: str | Path, key: str, messages: Sequence[str], **fields: Any
+) -> None:
+    """Append ``messages`` to the list ``key`` of an existing ``run.json`` (``warnings``,
+    ``notes``), set ``fields``, and write it back atomically; a missing or unreadable
+    record is left alone."""
+    import json
+
+    try:
+        record = json.loads(Path(run_json).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    old = record.get(key)
+    record[key] = [*([old] if isinstance(old, str) else (old or [])), *messages]
+    record.update(fields)
+    atomic_write_json(run_json, record)

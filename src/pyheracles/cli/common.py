@@ -269,18 +269,13 @@ def write_model_ifc(
     the elements written under ``ifc``.
     """
     from pyheracles.export.ifc import export_ifc_folders
-    from pyheracles.io.atomic import atomic_write_json
+    from pyheracles.provenance import add_to_run_json
 
     path = stage / "model.ifc"
     rep = export_ifc_folders(list(parts or [(stage, None)]), path, step1_dir=step1_dir,
                              name=f"pyheracles: {stage.name}")  # fmt: skip
-    run = stage / "run.json"
-    record = json.loads(run.read_text(encoding="utf-8")) if run.exists() else {}
-    notes = record.get("notes")
-    notes = [notes] if isinstance(notes, str) else list(notes or [])
-    record["notes"] = notes + [f"IFC: {n}" for n in rep.notes]
-    record["ifc"] = {"path": "model.ifc", "elements": dict(rep.elements)}
-    atomic_write_json(run, record)
+    add_to_run_json(stage / "run.json", "notes", [f"IFC: {n}" for n in rep.notes],
+                    ifc={"path": "model.ifc", "elements": dict(rep.elements)})  # fmt: skip
     return path
 
 
