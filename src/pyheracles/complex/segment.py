@@ -1,0 +1,299 @@
+"""Step 1 itself: one object per GIS feature, plus ground and remainder (thesis chapter 5)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import shapely
+from numpy.typing import NDArray
+
+from pyheracles.cloud import PointCloud
+from pyheracles.complex.clusters import hull, object_points, scattered_points
+from pyheracles.complex.cookie import GridIndex, claims, footprints_of, to_local
+from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
+from pyheracles.complex.params import ComplexParams, ComplexResult, resolve_params
+from pyheracles.errors import InputError
+from pyheracles.geometry.neighbours import point_spacing
+from pyheracles.io.vector import align_crs, validate_polygons
+from pyheracles.labels import Segmentation, merge_rows
+
+__all__ = ["prepare_layers", "segment_complex"]
+
+
+def prepare_layers(
+    layers: Mapping[str, gpd.GeoDataFrame],
+    cloud: PointCloud,
+    *,
+    reproject: bool = False,
+    fix_invalid: bool = False,
+) -> dict[str, gpd.GeoDataFrame]:
+    """Validate each layer, bring it into the cloud's CRS and check it overlaps the cloud.
+
+    Raises
+    ------
+    InputError
+        No layers, invalid polygons, CRS mismatch, or a layer entirely outside
+        the cloud (the usual sign of a wrong CRS).
+    """
+    if not layers:
+        raise InputError("no GIS layer given", hint="add at least one --layer NAME=PATH")
+    cloud.validate(what="complex point cloud")
+    lo, hi = cloud.bounds()[:, :2]
+    cloud_box = shapely.box(lo[0], lo[1], hi[0], hi[1])
+    out: dict[str, gpd.GeoDataFrame] = {}
+    for name, gdf in layers.items():
+        src = gdf.attrs.get("source")
+        checked = validate_polygons(gdf, fix_invalid=fix_invalid, source=src)
+        checked = align_crs(checked, cloud.crs, reproject=reproject, cloud_source=cloud.source)
+        if "source_fid" not in checked.columns:
+            checked = checked.assign(source_fid=np.arange(len(checked), dtype=np.int64))
+        if not shapely.intersects(checked.geometry.to_numpy(), cloud_box).any():
+            b = checked.total_bounds
+            raise InputError(
+                f"layer {name!r}: no polygon overlaps the cloud (layer extent "
+                f"{b[0]:.1f},{b[1]:.1f} - {b[2]:.1f},{b[3]:.1f}; cloud extent "
+                f"{lo[0]:.1f},{lo[1]:.1f} - {hi[0]:.1f},{hi[1]:.1f})",
+                path=src,
+                hint="check that the layer and the cloud are in the same CRS and area",
+            )
+        checked.attrs.update(gdf.attrs)
+        out[name] = checked
+    return out
+
+
+@dataclass(eq=False)
+class _Site:
+    """The state one run shares across layers: points, indexes, pool and labels."""
+
+    xyz: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    index: GridIndex
+    ground: NDArray[np.bool_]
+    pool: NDArray[np.bool_]
+    inside_any: NDArray[np.bool_]
+    footprints: dict[str, list[NDArray[np.int64]]]
+    multi_echo: NDArray[np.bool_] | None
+    instance: NDArray[np.int32]
+    class_id: NDArray[np.uint8]
+
+
+def _segment_layer(
+    site: _Site,
+    name: str,
+    code: int,
+    gdf: gpd.GeoDataFrame,
+    rp: ComplexParams,
+    rows: list[dict[str, Any]],
+    geometries: list[Any],
+) -> list[Any]:
+    """One object per polygon of a layer; labels the site, appends table rows.
+
+    Returns the ``source_fid`` of the features that got no object.
+    """
+    xyz = site.xyz
+    buffer = float(rp.buffer_m)  # type: ignore[arg-type]
+    geoms = to_local(gdf.geometry.to_numpy(), site.offset)
+    pts, poly, offpoly = claims(
+        geoms, buffer, xyz, site.index, site.pool, site.inside_any, site.footprints[name],
+        float(rp.cluster_distance_m),  # type: ignore[arg-type]
+    )  # fmt: skip
+    by_poly = np.argsort(poly.astype(np.int32), kind="stable")
+    pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
+    bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
+    levels = ground_level(geoms, xyz, site.ground, site.index, buffer + 5.0)
+    scattered = scattered_points(xyz, pts, rp, site.multi_echo)
+    empty: list[Any] = []
+    for k in range(len(geoms)):
+        sl = slice(bounds[k], bounds[k + 1])
+        cand, cand_dist = pts[sl], offpoly[sl]
+        keep = object_points(xyz, cand, cand_dist, scattered[sl], rp)
+        if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
+            empty.append(gdf["source_fid"].iloc[k])
+            continue
+        members = cand[keep]
+        next_id = len(rows) + 1
+        site.instance[members] = next_id
+        site.class_id[members] = code
+        site.pool[members] = False
+        z = xyz[members, 2]
+        base = levels[k] if np.isfinite(levels[k]) else float(z.min())
+        attrs = gdf.iloc[k].drop(labels=[gdf.geometry.name]).to_dict()
+        rows.append(
+            {
+                "instance": next_id,
+                "class": name,
+                "class_id": code,
+                "n_points": len(members),
+                "n_inside": int((cand_dist[keep] == 0.0).sum()),
+                "z_min": float(z.min() + site.offset[2]),
+                "z_max": float(z.max() + site.offset[2]),
+                "ground_z": float(base + site.offset[2]),
+                "height": float(z.max() - base),
+                "footprint_area_m2": float(shapely.area(hull(xyz[members, :2]))),
+                "gis_area_m2": float(shapely.area(geoms[k])),
+                **{(f"attr_{a}" if a in _RESERVED else a): v for a, v in attrs.items()},
+            }
+        )
+        geometries.append(gdf.geometry.iloc[k])
+    return empty
+
+
+# ----------------------------------------------------------------------------- main
+def segment_complex(
+    cloud: PointCloud,
+    layers: Mapping[str, gpd.GeoDataFrame],
+    params: ComplexParams | None = None,
+) -> ComplexResult:
+    """Split a complex's cloud into one object per GIS feature, plus ground and remainder.
+
+    Parameters
+    ----------
+    cloud
+        The whole complex (aerial LiDAR, drone photogrammetry, TLS), any CRS.
+    layers
+        Layer name (= class of its objects) -> polygons with attributes, already
+        in the cloud's CRS (see :func:`prepare_layers`).
+    params
+        Parameters; automatic values are derived from the point spacing.
+
+    Returns
+    -------
+    ComplexResult
+        Labels aligned with ``cloud`` and the objects table.  Class codes
+        follow the processing order: the first layer processed is class 1.
+
+    Raises
+    ------
+    InputError
+        Empty cloud, NaN coordinates, unknown layer in ``layer_order``.
+
+    References
+    ----------
+    Murtiyoso, A. (2020). Geospatial recording and point cloud classification
+    of heritage buildings. PhD thesis, INSA Strasbourg, chapter 5.
+
+    Examples
+    --------
+    >>> from pyheracles.synthetic.complex_scene import kasepuhan_scene, ComplexSceneParams
+    >>> scene = kasepuhan_scene(ComplexSceneParams(n_points=60_000))
+    >>> res = segment_complex(scene.cloud, scene.layers, ComplexParams(ground="none"))
+    >>> res.segmentation.check_balance()["total"] == len(scene.cloud)
+    True
+    """
+    p = params or ComplexParams()
+    cloud.validate(what="complex point cloud")
+    if len(cloud) < 10:
+        raise InputError(
+            f"the cloud has only {len(cloud)} points", path=cloud.source,
+            hint="step 1 needs a survey of the whole complex",
+        )  # fmt: skip
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    xyz = cloud.xyz
+    n = len(xyz)
+    spacing = point_spacing(xyz, rng=p.seed)
+    rp = resolve_params(p, spacing)
+    timings["spacing"] = time.perf_counter() - t0
+
+    t = time.perf_counter()
+    sizes = [
+        float(np.sqrt(shapely.area(g.geometry.to_numpy())).max()) for g in layers.values() if len(g)
+    ]
+    ground = ground_mask(cloud, rp, max(sizes) if sizes else 20.0)
+    if rp.raised_ground_m is not None and rp.ground != "class" and ground.any():
+        # platforms, plinths, steps and low walls are the features', not terrain
+        ground = ground & ~raised_ground(layers, xyz, ground, rp, spacing, cloud)
+    timings["ground"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    pool = ~ground
+    index = GridIndex(xyz[:, :2], max(4.0 * float(rp.buffer_m), 5.0))  # type: ignore[arg-type]
+    footprints = footprints_of(layers, xyz, index, cloud.offset)
+    inside_any = np.zeros(n, dtype=bool)
+    for per_poly in footprints.values():
+        for inside in per_poly:
+            inside_any[inside] = True
+    if rp.layer_order is None:
+        order = auto_layer_order(layers, footprints, xyz, pool, ground, index, cloud.offset)
+    else:
+        if sorted(rp.layer_order) != sorted(layers):
+            raise InputError(
+                f"layer_order {list(rp.layer_order)} must name each layer once; "
+                f"layers are {sorted(layers)}"
+            )
+        order = tuple(rp.layer_order)
+    timings["layer_order"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    site = _Site(
+        xyz=xyz,
+        offset=cloud.offset,
+        index=index,
+        ground=ground,
+        pool=pool,
+        inside_any=inside_any,
+        footprints=footprints,
+        multi_echo=(
+            np.asarray(cloud.attributes["number_of_returns"]) > 1
+            if "number_of_returns" in cloud.attributes
+            else None
+        ),
+        instance=np.zeros(n, dtype=np.int32),
+        class_id=np.zeros(n, dtype=np.uint8),
+    )
+    classes: dict[int, str] = {}
+    rows: list[dict[str, Any]] = []
+    geometries: list[Any] = []
+    warnings: list[str] = []
+    for code, name in enumerate(order, start=1):
+        classes[code] = name
+        empty = _segment_layer(site, name, code, layers[name], rp, rows, geometries)
+        if empty:
+            warnings.append(
+                f"layer {name!r}: {len(empty)} of {len(layers[name])} features got no points "
+                f"(source_fid {', '.join(map(str, empty[:20]))}{' ...' if len(empty) > 20 else ''})"
+            )
+    timings["segmentation"] = time.perf_counter() - t
+
+    objects = _objects_frame(rows, geometries, layers, order, cloud)
+    seg = Segmentation(
+        instance=site.instance, class_id=site.class_id, classes=classes, objects=objects,
+        ground=ground, warnings=tuple(warnings),
+    )  # fmt: skip
+    seg.check_balance()
+    return ComplexResult(seg, rp, spacing, order, timings)
+
+
+_RESERVED = {
+    "instance", "class", "class_id", "n_points", "n_inside", "z_min", "z_max", "ground_z",
+    "height", "footprint_area_m2", "gis_area_m2",
+}  # fmt: skip
+
+
+def _objects_frame(
+    rows: Sequence[dict[str, Any]],
+    geometries: Sequence[Any],
+    layers: Mapping[str, gpd.GeoDataFrame],
+    order: Sequence[str],
+    cloud: PointCloud,
+) -> gpd.GeoDataFrame:
+    crs = next((g.crs for g in layers.values() if g.crs is not None), None) or cloud.crs
+    if not rows:
+        return gpd.GeoDataFrame(
+            {"instance": pd.Series(dtype=np.int32), "class": pd.Series(dtype=str),
+             "n_points": pd.Series(dtype=np.int64)},
+            geometry=gpd.GeoSeries([], crs=crs),
+        )  # fmt: skip
+    # attribute types of the layers kept (an integer id stays integer where other
+    # layers lack it, instead of NaN-padded float)
+    rename = lambda a: f"attr_{a}" if a in _RESERVED else a  # noqa: E731
+    frame = merge_rows(rows, [layers[name] for name in order], rename=rename)
+    frame["instance"] = frame["instance"].astype(np.int32)
+    frame["n_points"] = frame["n_points"].astype(np.int64)
+    return gpd.GeoDataFrame(frame, geometry=gpd.GeoSeries(list(geometries), crs=crs))
