@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from pyheracles.errors import InputError
 from pyheracles.io.atomic import atomic_path, atomic_write_json, atomic_write_text
+from pyheracles.io.ply import write_vertex_table
 
 __all__ = [
     "CLASS_NAMES",
@@ -199,25 +200,14 @@ def _colour(cloud: Any) -> NDArray[np.uint8] | None:
 
 def _write_ply(path: Path, arrays: dict[str, NDArray[Any]], offset: NDArray[np.float64]) -> None:
     """Binary little-endian PLY of float32 local coordinates and per-point fields."""
-    ply = {"float32": "float", "uint8": "uchar", "int32": "int", "uint16": "ushort"}
     xyz = arrays["xyz"]
     fields = [("x", xyz[:, 0]), ("y", xyz[:, 1]), ("z", xyz[:, 2])]
     if "rgb" in arrays:
         fields += [(c, arrays["rgb"][:, i]) for i, c in enumerate(("red", "green", "blue"))]
     fields += [(k, arrays[k]) for k in ("intensity", "label", "instance") if k in arrays]
-    dtype = np.dtype([(n, "<" + a.dtype.str[1:]) for n, a in fields])
-    table = np.empty(len(xyz), dtype=dtype)
-    for n, a in fields:
-        table[n] = a
-    head = ["ply", "format binary_little_endian 1.0",
-            "comment pyheracles training export; world = xyz + offset",
-            "comment offset {:.6f} {:.6f} {:.6f}".format(*offset),
-            f"element vertex {len(xyz)}"]  # fmt: skip
-    head += [f"property {ply[str(a.dtype)]} {n}" for n, a in fields]
-    head.append("end_header\n")
-    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        fh.write("\n".join(head).encode("ascii"))
-        fh.write(table.tobytes())
+    comments = ("pyheracles training export; world = xyz + offset",
+                "offset {:.6f} {:.6f} {:.6f}".format(*offset))  # fmt: skip
+    write_vertex_table(path, fields, comments)
 
 
 def _write_npz(path: Path, arrays: dict[str, NDArray[Any]], offset: NDArray[np.float64]) -> None:

@@ -17,7 +17,7 @@ from pyheracles.cloud import PointCloud, reject_non_finite
 from pyheracles.errors import InputError
 from pyheracles.io.atomic import atomic_path
 
-__all__ = ["read_ply", "write_ply"]
+__all__ = ["read_ply", "write_ply", "write_vertex_table"]
 
 _PLY_TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -132,12 +132,33 @@ def write_ply(
             fields.append((name, arr))
         else:  # several values per point (LAS array extra bytes): one property each
             fields.extend((f"{name}_{i}", arr[:, i]) for i in range(arr.shape[1]))
-    dtype = np.dtype([(n, "<" + a.dtype.str[1:]) for n, a in fields])
-    table = np.empty(len(cloud), dtype=dtype)
-    for n, a in fields:
-        table[n] = a
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(cloud)}"]
-    header += [f"property {_NUMPY_TO_PLY[dtype[n].str[1:]]} {n}" for n, _ in fields]
+    return write_vertex_table(path, fields)
+
+
+def write_vertex_table(
+    path: str | Path, fields: list[tuple[str, NDArray[Any]]], comments: tuple[str, ...] = ()
+) -> Path:
+    """Write named per-vertex columns as a binary little-endian PLY, atomically.
+
+    Parameters
+    ----------
+    path
+        Output file.
+    fields
+        ``(property name, 1-D array)`` in file order; every array has one value per vertex
+        and a numeric dtype PLY can hold (int8-32, uint8-32, float32, float64).
+    comments
+        ``comment`` lines of the header (no newlines).
+    """
+    n = len(fields[0][1]) if fields else 0
+    dtype = np.dtype([(name, "<" + a.dtype.str[1:]) for name, a in fields])
+    table = np.empty(n, dtype=dtype)
+    for name, a in fields:
+        table[name] = a
+    header = ["ply", "format binary_little_endian 1.0"]
+    header += [f"comment {c}" for c in comments]
+    header.append(f"element vertex {n}")
+    header += [f"property {_NUMPY_TO_PLY[dtype[name].str[1:]]} {name}" for name, _ in fields]
     header.append("end_header\n")
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write("\n".join(header).encode("ascii"))
