@@ -29,6 +29,7 @@ import pandas as pd
 from pyheracles.io.atomic import atomic_write_text
 from pyheracles.report.colours import hex_colour, object_colours
 from pyheracles.report.folder import RunFolder, read_run_folder, sample_cloud
+from pyheracles.report.overview import name_column, object_name
 
 __all__ = ["REPORT_HTML", "auto_fields_from_source", "build_report"]
 
@@ -42,7 +43,6 @@ PARAMS_OF_STEP = {
     "framework": "pyheracles.beams:BeamParams",
 }
 #: Columns that name an object, in order of preference.
-NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id", "role")
 
 
 def _auto_fields(step: str) -> set[str]:
@@ -157,7 +157,7 @@ def _labels(
     """Instance -> display name, -> ``[[attribute, value], ...]``, -> class."""
     if objects is None or "instance" not in objects:
         return {}, {}, {}
-    col = next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
+    col = name_column(objects)
     names: dict[int, str] = {}
     attrs: dict[int, list[list[str]]] = {}
     classes: dict[int, str] = {}
@@ -168,8 +168,7 @@ def _labels(
             continue
         cls = row.get("class")
         cls = "object" if cls is None or str(cls) in ("", "nan") else str(cls)
-        val = row.get(col) if col else None
-        names[i] = f"{val}" if val is not None and str(val) not in ("", "nan") else f"{cls} {i}"
+        names[i] = object_name(row, col)
         classes[i] = cls
         pairs = [["instance", str(i)]]
         for k, v in list(row.items())[:24]:

@@ -146,17 +146,28 @@ def plot_complex_overview(
 
 
 #: Attribute columns that name a GIS feature, in order of preference.
-NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id")
+#: Attribute columns that name an object, most telling first (a GIS name, a BAG id, a role).
+NAME_COLUMNS = ("name", "naam", "fid", "identificatiebagpnd", "gml_id", "role")
+
+
+def name_column(objects: pd.DataFrame) -> str | None:
+    """The first of :data:`NAME_COLUMNS` that the objects table has and fills at least once."""
+    return next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
+
+
+def object_name(row: Mapping[str, Any], column: str | None) -> str:
+    """Display name of an objects-table row: its ``column`` value, else ``"<class> <instance>"``."""
+    v = row.get(column) if column else None
+    if v is not None and str(v) not in ("", "nan"):
+        return str(v)
+    cls = row.get("class")
+    cls = "object" if cls is None or str(cls) in ("", "nan") else str(cls)
+    return f"{cls} {int(row['instance'])}"
 
 
 def _object_names(objects: pd.DataFrame) -> dict[int, str]:
-    col = next((c for c in NAME_COLUMNS if c in objects and objects[c].notna().any()), None)
-    out = {}
-    for row in objects.to_dict("records"):
-        v = row.get(col) if col else None
-        i = int(row["instance"])
-        out[i] = str(v) if v is not None and str(v) not in ("", "nan") else f"{row['class']} {i}"
-    return out
+    col = name_column(objects)
+    return {int(row["instance"]): object_name(row, col) for row in objects.to_dict("records")}
 
 
 def _features_without_points(objects: pd.DataFrame, layers: Mapping[str, Any]) -> list[str]:
