@@ -59,3 +59,14 @@ def test_cli_bundle_prior_positions(shared_data, tmp_path):
     rep = json.loads((out / "report.json").read_text())
     assert rep["sigma0"] == pytest.approx(1.06942, rel=1e-4)  # DBAT sxb-prior-eo report
     assert rep["n_observations"] == 2452
+
+
+def test_cli_bundle_script_by_relative_path(shared_data, tmp_path, monkeypatch):
+    """A DBAT script named relative to the working directory ($HERE was joined twice)."""
+    monkeypatch.chdir(shared_data.parent)
+    script = (shared_data / "dbat" / "script" / "camcaldemo" / "camcaldemo.xml").relative_to(
+        shared_data.parent
+    )
+    out = tmp_path / "rel"
+    assert main(["bundle", str(script), "--no-plots", "-o", str(out)]) == 0
+    assert json.loads((out / "report.json").read_text())["redundancy"] == 3725

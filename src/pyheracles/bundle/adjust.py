@@ -34,7 +34,7 @@ from pyheracles.bundle.posterior import (
     redundancy_numbers,
 )
 from pyheracles.bundle.project import BundleWarning, Project
-from pyheracles.bundle.schur import PointCameraSystem
+from pyheracles.bundle.schur import PointCameraSystem, SchurLayout
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
 
 __all__ = ["BundleParameters", "BundleResult", "bundle_adjust", "prepare_network"]
@@ -617,13 +617,15 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
     converged = False
     status = "ok"
     lam = params.lm_lambda0 if params.damping == "lm" else 0.0
+    carried = None  # (residual, Jacobian) of an accepted full step
 
     def failure(exc: Exception, **extra) -> Exception:
         exc.diagnosis = _failure_diagnosis(net, st, r, norms, n_iter, diagnosis, **extra)
         return exc
 
+    layout = SchurLayout.from_network(net)  # image-pair structure, fixed over iterations
     while True:
-        ne = PointCameraSystem.build(net, st, r, jac)
+        ne = PointCameraSystem.build(net, st, r, jac, layout)
         try:
             ne.reduce(raise_singular=_singular_points(p))
         except DegenerateGeometryError as exc:
@@ -659,7 +661,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
             alpha = 1.0
             while alpha >= params.alpha_min:
                 trial = _apply(net, st, dp, dc, alpha)
-                rt, _ = _residuals(net, trial)
+                # A full step (usually accepted) brings its Jacobian for the next round.
+                rt, jt = _residuals(net, trial, jacobian=alpha == 1.0)
                 if 0.5 * float(rt @ rt) < f0 + params.armijo_mu * alpha * fp0:
                     break
                 alpha /= 2
@@ -668,6 +671,8 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
                 break
             st = trial
             alphas.append(alpha)
+            if jt is not None:
+                carried = (rt, jt)
         else:  # Levenberg-Marquardt (Marquardt scaling of the diagonal)
             while True:
                 ne.reduce(lam)
@@ -687,7 +692,10 @@ def _bundle_adjust(project: Project, params: BundleParameters) -> BundleResult:
                 break
             st = trial
             lambdas.append(lam)
-        r, jac = _residuals(net, st, jacobian=True)
+        if carried is not None:
+            (r, jac), carried = carried, None
+        else:
+            r, jac = _residuals(net, st, jacobian=True)
         norms.append(float(np.linalg.norm(r)))
     timings["adjust"] = time.perf_counter() - t1
     if not converged:

@@ -174,8 +174,11 @@ def rotation_matrix(angles: np.ndarray, derivatives: bool = False):
     return rot, drot
 
 
-def _distortion(a: np.ndarray, k: np.ndarray, p: np.ndarray):
-    """Brown distortion D(a), dD/da (m,2,2), dD/dK (m,2,3), dD/dP (m,2,2)."""
+def _distortion(a: np.ndarray, k: np.ndarray, p: np.ndarray, derivatives: bool = True):
+    """Brown distortion D(a), dD/da (m,2,2), dD/dK (m,2,3), dD/dP (m,2,2).
+
+    Without ``derivatives`` the three derivative arrays are None.
+    """
     ax, ay = a[:, 0], a[:, 1]
     r2 = ax * ax + ay * ay
     k1, k2, k3 = k[:, 0], k[:, 1], k[:, 2]
@@ -188,6 +191,8 @@ def _distortion(a: np.ndarray, k: np.ndarray, p: np.ndarray):
     d = np.empty_like(a)
     d[:, 0] = ax * (1.0 + rad) + tx
     d[:, 1] = ay * (1.0 + rad) + ty
+    if not derivatives:
+        return d, None, None, None
     dda = np.empty((a.shape[0], 2, 2))
     dda[:, 0, 0] = 1.0 + rad + 2.0 * ax * ax * drad + 6.0 * p1 * ax + 2.0 * p2 * ay
     dda[:, 0, 1] = 2.0 * ax * ay * drad + 2.0 * p1 * ay + 2.0 * p2 * ax
@@ -244,14 +249,18 @@ def corrected_points(
         x, y = a[:, 0].copy(), a[:, 1]
         a[:, 0] = (1.0 + asp) * x + sk * y
         if jacobian:
-            j0 = jac[:, 0, :].copy()
-            jac[:, 0, :] = (1.0 + asp)[:, None] * j0 + sk[:, None] * jac[:, 1, :]
+            # Only px, py, as, sk (columns 1-4) are non-zero at this stage.
+            j0 = jac[:, 0, 1:5].copy()
+            jac[:, 0, 1:5] = (1.0 + asp)[:, None] * j0 + sk[:, None] * jac[:, 1, 1:5]
             jac[:, 0, _IO["as"]] += x
             jac[:, 0, _IO["sk"]] += y
     # Stage 3: Brown distortion.
-    d, dda, ddk, ddp = _distortion(a, k, p)
+    d, dda, ddk, ddp = _distortion(a, k, p, derivatives=jacobian)
     if jacobian:
-        jac = np.einsum("mij,mjk->mik", dda, jac)
+        # Only px, py, as, sk (columns 1-4) are non-zero before the distortion.
+        pre = jac[:, :, 1:5].copy()
+        for row in (0, 1):
+            jac[:, row, 1:5] = dda[:, row, 0:1] * pre[:, 0, :] + dda[:, row, 1:2] * pre[:, 1, :]
         jac[:, :, 5:8] += ddk
         jac[:, :, 8:10] += ddp
     # Stage 4: affinity (model 4) or skew (model 5) after the distortion.
@@ -302,45 +311,76 @@ def image_residuals(
     -------
     residual : (m,2); and ``(d_xyz, d_eo, d_io)`` when ``jacobian``.
     """
-    rot, drot = rotation_matrix(eo[:, 3:6], derivatives=True)
-    if obs_image is not None:
-        rot, drot, eo = rot[obs_image], drot[obs_image], eo[obs_image]
-    diff = xyz - eo[:, :3]
-    xc = np.einsum("mji,mj->mi", rot, diff)  # R^T (X - X0)
+    xc, jx, ja = _camera_frame(eo, xyz, obs_image, jacobian)
     z = xc[:, 2]
     proj = xc[:, :2] / z[:, None]
     cc = io[:, 0]
     if model == FORWARD_MODEL:
-        return _forward_residuals(io, proj, xc, rot, drot, diff, uv_mm, jacobian)
+        return _forward_residuals(io, proj, xc, jx, ja, uv_mm, jacobian)
     corr, dcorr = corrected_points(uv_mm, io, model, jacobian)
     res = -cc[:, None] * proj - corr
     if not jacobian:
         return res
     m = xyz.shape[0]
-    # d(-cc * xc[:2]/z) / d xc
-    dp = np.zeros((m, 2, 3))
-    f = -cc / z
-    dp[:, 0, 0] = f
-    dp[:, 1, 1] = f
-    dp[:, 0, 2] = -f * proj[:, 0]
-    dp[:, 1, 2] = -f * proj[:, 1]
-    d_xyz = np.einsum("mik,mjk->mij", dp, rot)  # dp @ R^T
+    # d(-cc * xc[:2]/z) / d xc = f [[1, 0, -x/z], [0, 1, -y/z]], f = -cc/z, chained with
+    # d xc / d X (= R^T) and d xc / d angles (written out: dp is sparse).
+    f = (-cc / z)[:, None]
+    d_xyz = np.empty((m, 2, 3))
     d_eo = np.empty((m, 2, 6))
+    for row in (0, 1):
+        d_xyz[:, row, :] = f * (jx[:, row, :] - proj[:, row : row + 1] * jx[:, 2, :])
+        d_eo[:, row, 3:6] = f * (ja[:, row, :] - proj[:, row : row + 1] * ja[:, 2, :])
     d_eo[:, :, :3] = -d_xyz
-    # d xc / d angle_k = dR_k^T (X - X0)
-    dxc = np.einsum("mjik,mj->mik", drot, diff)  # (m,3,3): [:, i, k]
-    d_eo[:, :, 3:6] = np.einsum("mij,mjk->mik", dp, dxc)
     d_io = -dcorr
     d_io[:, :, 0] += -proj
     return res, (d_xyz, d_eo, d_io)
 
 
-def _forward_residuals(io, proj, xc, rot, drot, diff, uv_mm, jacobian):
+def _camera_frame(eo: np.ndarray, xyz: np.ndarray, obs_image: np.ndarray | None,
+                  jacobian: bool):  # fmt: skip
+    """Camera coordinates ``xc = R^T (X - X0)`` of every observation.
+
+    Returns xc (m,3) and, with ``jacobian``, d xc / d X (m,3,3) and
+    d xc / d (omega, phi, kappa) (m,3,3) (None otherwise).  With ``obs_image``
+    the rotations are per image and the products are done image by image
+    (one small matrix product per image instead of per-observation gathers).
+    """
+    if jacobian:
+        rot, drot = rotation_matrix(eo[:, 3:6], derivatives=True)
+    else:
+        rot, drot = rotation_matrix(eo[:, 3:6]), None
+    if obs_image is None:
+        diff = xyz - eo[:, :3]
+        xc = np.einsum("mji,mj->mi", rot, diff)
+        if not jacobian:
+            return xc, None, None
+        return xc, rot.transpose(0, 2, 1), np.einsum("mjik,mj->mik", drot, diff)
+    m = xyz.shape[0]
+    n_img = eo.shape[0]
+    in_order = bool(np.all(obs_image[1:] >= obs_image[:-1]))
+    order = None if in_order else np.argsort(obs_image, kind="stable")
+    bounds = np.searchsorted(obs_image if in_order else obs_image[order], np.arange(n_img + 1))
+    xc = np.empty((m, 3))
+    jx = np.empty((m, 3, 3)) if jacobian else None
+    ja = np.empty((m, 3, 3)) if jacobian else None
+    for i in range(n_img):
+        if bounds[i] == bounds[i + 1]:
+            continue
+        sel = slice(bounds[i], bounds[i + 1]) if in_order else order[bounds[i] : bounds[i + 1]]
+        dif = xyz[sel] - eo[i, :3]
+        xc[sel] = dif @ rot[i]
+        if jacobian:
+            jx[sel] = rot[i].T
+            ja[sel] = (dif @ drot[i].reshape(3, 9)).reshape(-1, 3, 3)
+    return xc, jx, ja
+
+
+def _forward_residuals(io, proj, xc, jx, ja, uv_mm, jacobian):
     """Residuals of the forward model: distort the projected point, subtract the measured one."""
     cc = io[:, 0]
     p_mm = -cc[:, None] * proj
     x = np.column_stack([uv_mm[:, 0] - io[:, 1], uv_mm[:, 1] + io[:, 2]])
-    d, dda, ddk, ddp = _distortion(p_mm, -io[:, 5:8], -io[:, 8:10])
+    d, dda, ddk, ddp = _distortion(p_mm, -io[:, 5:8], -io[:, 8:10], derivatives=jacobian)
     res = d - x
     if not jacobian:
         return res
@@ -353,11 +393,10 @@ def _forward_residuals(io, proj, xc, rot, drot, diff, uv_mm, jacobian):
     dp[:, 0, 2] = -f * proj[:, 0]
     dp[:, 1, 2] = -f * proj[:, 1]
     dp = np.einsum("mij,mjk->mik", dda, dp)  # chain through the distortion
-    d_xyz = np.einsum("mik,mjk->mij", dp, rot)
+    d_xyz = np.einsum("mik,mkj->mij", dp, jx)
     d_eo = np.empty((m, 2, 6))
     d_eo[:, :, :3] = -d_xyz
-    dxc = np.einsum("mjik,mj->mik", drot, diff)
-    d_eo[:, :, 3:6] = np.einsum("mij,mjk->mik", dp, dxc)
+    d_eo[:, :, 3:6] = np.einsum("mij,mjk->mik", dp, ja)
     d_io = np.zeros((m, 2, len(IO_NAMES)))
     d_io[:, :, 0] = np.einsum("mij,mj->mi", dda, -proj)
     d_io[:, 0, 1] = 1.0

@@ -264,7 +264,8 @@ def data_snooping(result, critical: float | None = None, test: str | None = None
 
 
 def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
-                       alpha: float = 0.001, ratio: float = 5.0) -> dict:  # fmt: skip
+                       alpha: float = 0.001, ratio: float = 5.0,
+                       min_others: int = 2) -> dict:  # fmt: skip
     """Test every control and check point against its intersection from the images.
 
     Each point's rays are intersected with the given orientations (least squares,
@@ -273,9 +274,14 @@ def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
     against the chi-square (3) quantile ``1 - alpha``, where ``C_int = sigma^2 A^-1``
     (A: the point's normal matrix) and ``C_ref`` the reference's prior covariance
     (0 for fixed points).  A point is *gross* when it fails the test and its
-    discrepancy is also over ``ratio`` times the median discrepancy of all tested
-    points (before the adjustment the orientations are only approximate, so every
-    point may fail the chi-square test; the gross ones stand out from the rest).
+    discrepancy is also over ``ratio`` times the median discrepancy of the *other*
+    tested points (the orientations are approximate before the adjustment and
+    ``C_int`` ignores their uncertainty after it, so typical points may fail the
+    chi-square test: the gross ones stand out from the rest).  Including the point
+    itself in the median (as an earlier version did) let a gross point raise the
+    median it is compared with (with 2 points it is half of it and can never exceed
+    5 times it).  With fewer than ``min_others`` other points there is no rest to
+    compare with: T is reported, no point is declared gross (``rule`` says so).
 
     Parameters
     ----------
@@ -289,9 +295,10 @@ def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
     Returns
     -------
     dict with ``points`` (list of {id, label, role, rays, delta (3,), delta_norm,
-    T, gross}), ``gross`` (ids), ``critical``, ``median_delta``.
+    T, median_others, gross}), ``gross`` (ids), ``critical``, ``median_delta`` (all
+    points), ``ratio``, ``min_others`` and ``rule`` (the rule in words).
     """
-    from scipy.stats import chi2
+    from scipy.special import gammaincinv  # scipy.stats costs ~1 s to import
 
     from pyheracles.bundle.camera import image_residuals
     from pyheracles.bundle.initial import centre_rotation, forward_intersection, ideal_rays
@@ -303,9 +310,16 @@ def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
         & np.all(np.isfinite(p.xyz), axis=1)
         & (rays_n >= 2)
     )
-    crit = float(chi2.ppf(1.0 - alpha, 3))
+    crit = float(2.0 * gammaincinv(1.5, 1.0 - alpha))  # chi2(3) quantile
+    rule = (
+        f"gross = T > chi2(3, {1 - alpha:g}) and |delta| > {ratio:g} x the median "
+        f"|delta| of the other tested points"
+    )
+    if len(cand) - 1 < min_others:
+        rule += f"; fewer than {min_others} other points: none can be declared gross"
     out: dict = {"points": [], "gross": [], "critical": crit, "median_delta": None,
-                 "sigma": float(sigma), "alpha": alpha}  # fmt: skip
+                 "sigma": float(sigma), "alpha": alpha, "ratio": ratio,
+                 "min_others": min_others, "rule": rule}  # fmt: skip
     if len(cand) == 0:
         return out
     local = np.full(p.n_points, -1)
@@ -347,13 +361,25 @@ def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
     t[pos] = np.einsum("ni,ni->n", d[pos], np.linalg.solve(cov[pos], d[pos][..., None])[..., 0])
     dn = np.linalg.norm(d, axis=1)
     med = float(np.median(dn))
-    gross = (t > crit) & (dn > ratio * med) & ok
+    n = len(dn)
+    if n - 1 >= min_others:
+        # Leave-one-out median: drop the point's own value from the sorted list.
+        srt = np.sort(dn)
+        pos = np.searchsorted(srt, dn)
+        others = np.array([np.median(np.delete(srt, k)) for k in pos])
+        outlying = dn > ratio * others
+    else:
+        others = np.full(n, np.nan)
+        outlying = np.zeros(n, bool)
+    gross = (t > crit) & outlying & ok
     out["median_delta"] = med
     for j, i in enumerate(cand):
         out["points"].append({
             "id": int(p.point_ids[i]), "label": p.point_labels[i], "role": str(p.point_role[i]),
             "rays": int(rays_n[i]), "delta": d[j].tolist(), "delta_norm": float(dn[j]),
-            "T": float(t[j]) if np.isfinite(t[j]) else None, "gross": bool(gross[j]),
+            "T": float(t[j]) if np.isfinite(t[j]) else None,
+            "median_others": float(others[j]) if np.isfinite(others[j]) else None,
+            "gross": bool(gross[j]),
         })  # fmt: skip
     order = np.argsort(-dn[gross])
     out["gross"] = [int(p.point_ids[cand[gross][o]]) for o in order]

@@ -25,14 +25,21 @@ def posterior_covariance(res: BundleResult, ne: PointCameraSystem, fac, d) -> No
 
     Times (DBAT's split) go to ``res.timings``: ``cov_prep`` (inverse of the
     reduced camera system), ``cov_io`` and ``cov_eo`` (their blocks and
-    standard deviations), ``cov_op`` (every point's 3x3 block).
+    standard deviations), ``cov_op`` (every point's 3x3 block and, from the
+    same blocks of ``S^-1``, the redundancy numbers of the image observations).
     """
     net = res.network
     s02 = res.sigma0**2
     nc = net.n_cam_cols
     t = time.perf_counter()
     if nc:
-        inv_scaled = scipy.linalg.cho_solve(fac, np.eye(nc), check_finite=False)
+        # Inverse from the Cholesky factor (LAPACK potri: 2/3 of cho_solve on the identity).
+        inv_tri, info = scipy.linalg.lapack.dpotri(fac[0], lower=fac[1])
+        if info == 0:
+            tri = np.tril(inv_tri) if fac[1] else np.triu(inv_tri)
+            inv_scaled = tri + tri.T - np.diag(np.diag(tri))
+        else:  # pragma: no cover - the factor came from a successful cho_factor
+            inv_scaled = scipy.linalg.cho_solve(fac, np.eye(nc), check_finite=False)
         cov_cam = inv_scaled / d[:, None] / d[None, :]
     else:
         cov_cam = np.zeros((0, 0))
@@ -50,51 +57,29 @@ def posterior_covariance(res: BundleResult, ne: PointCameraSystem, fac, d) -> No
     res.eo_std = eo_std
     res.timings["cov_eo"] = time.perf_counter() - t
     t = time.perf_counter()
-    cov_p = ne.point_covariances(cov_cam)
+    cov_p, hat = ne.posterior(cov_cam)
+    res.timings["cov_op"] = time.perf_counter() - t
     fixed = ~net.op_free
     cov_p[fixed.nonzero()[0], fixed.nonzero()[1], :] = 0.0
     cov_p[fixed.nonzero()[0], :, fixed.nonzero()[1]] = 0.0
     res.cov_xyz = s02 * cov_p
     res.xyz_std = np.sqrt(np.clip(np.einsum("nii->ni", res.cov_xyz), 0, None))
-    res.timings["cov_op"] = time.perf_counter() - t
+    res.redundancy_numbers = 1.0 - hat
 
 
-def redundancy_numbers(res: BundleResult, ne: PointCameraSystem, jac, chunk=20000):
-    """Redundancy number of every image coordinate: 1 - diag(J Q J^T) (weighted).
+def redundancy_numbers(res: BundleResult, ne: PointCameraSystem, jac=None) -> np.ndarray:
+    """Redundancy number of every image coordinate: ``1 - diag(J N^-1 J^T)`` (weighted).
 
-    ``Q = N^-1`` is assembled per observation from the point block, the camera
-    block and their cross covariance ``-A^-1 B S^-1``; the sum over all
-    observations (and priors) equals the redundancy.
+    The diagonal is computed with the point covariance blocks in
+    :meth:`PointCameraSystem.posterior` (per image pair, from ``S^-1``);
+    this returns it (computing it if :func:`posterior_covariance` has not).
+    The sum over all observations (and priors) equals the redundancy.
     """
-    net = res.network
-    p = net.project
-    d_xyz, d_eo, d_io = jac
-    w = net.sqrt_w[:, :, None]
-    s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
-    q_cam = res.cov_cam / s02
-    union = np.flatnonzero(net.io_free.any(axis=0))
-    cols = np.concatenate([net.io_col[net.obs_cam][:, union], net.eo_col[p.obs_image]], axis=1)
-    valid = cols >= 0
-    jc = np.concatenate([d_io[:, :, union], d_eo], axis=2) * w * valid[:, None, :]
-    jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
-    q_pc_all = ne.cross_covariances(q_cam, cols)  # (m,3,L)
-    qz = np.zeros((q_cam.shape[0] + 1,) * 2)
-    qz[:-1, :-1] = q_cam
-    cz = np.where(valid, cols, q_cam.shape[0])
-    m = jp.shape[0]
-    out = np.empty((m, 2))
-    for start in range(0, m, chunk):
-        sl = slice(start, min(m, start + chunk))
-        q_pp = res.cov_xyz[p.obs_point[sl]] / s02
-        q_cc = qz[cz[sl][:, :, None], cz[sl][:, None, :]]
-        a, b = jp[sl], jc[sl]
-        h = (
-            np.einsum("kri,kij,krj->kr", a, q_pp, a)
-            + np.einsum("kri,kij,krj->kr", b, q_cc, b)
-            + 2 * np.einsum("kri,kij,krj->kr", a, q_pc_all[sl], b)
-        )
-        out[sl] = 1.0 - h
-    return out
+    if res.redundancy_numbers is None:
+        s02 = res.sigma0**2 if res.sigma0 > 0 else 1.0
+        _, hat = ne.posterior(res.cov_cam / s02)
+        res.redundancy_numbers = 1.0 - hat
+    return res.redundancy_numbers
 
 
 def prior_redundancy(res: BundleResult) -> np.ndarray:

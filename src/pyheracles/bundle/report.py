@@ -613,6 +613,8 @@ def _test_lines(d: dict, add) -> None:
             f"         chi2(3) critical value {test['critical']:.2f} at alpha {test['alpha']:g}, "
             f"sigma {test['sigma']:.4g}; median |delta| {test['median_delta']:.4g} ou"
         )
+        if test.get("rule"):
+            add(f"         {test['rule']}")
         add("         id        label      role     rays  |delta| (ou)   T         gross")
         for q_ in test["points"]:
             add(

@@ -1,18 +1,21 @@
 """Block-structured normal equations of the bundle: Schur complement on the object points.
 
-Each object point is a 3x3 block ``A_i``.  Its coupling with the camera
-parameters is kept per observation (``B_k = Jp_k^T Je_k``, 3x6, exterior
-orientation of the observing image) and per point and camera (``B_g``, 3xq,
-interior orientation), so that the reduced camera matrix
+Each object point is a 3x3 block ``A_p``.  Every observation ``k`` (point p,
+image i) has a camera block of ``L = q + 6`` columns: the ``q`` interior
+parameters of its camera and the 6 exterior parameters of its image, and its
+coupling ``B_k = Jp_k^T Jc_k`` (3xL).  Since ``B_p = sum_k B_k`` (scattered into
+the camera columns), the reduced camera matrix
 
-    S = C - sum_i B_i^T A_i^-1 B_i
+    S = C - sum_p B_p^T A_p^-1 B_p = C - sum_p sum_{k,l in p} B_k^T A_p^-1 B_l
 
-is assembled from small dense products over the pairs of observations of each
-point (vectorised numpy, scattered with ``bincount``) instead of general sparse
-matrix products: the cost is ``sum_i rays_i^2`` small blocks, the classic
-reduced-camera-system cost (Triggs et al. 2000, "Bundle adjustment - a modern
-synthesis", section 6).  The same pair lists give the posterior covariance
-blocks of every point and the redundancy numbers of every observation.
+is a sum over the pairs of observations of each point, and every pair of images
+(i, j) receives one dense LxL block.  The pairs are sorted by image pair once
+per network (:class:`SchurLayout`); each linearisation then computes one BLAS
+product per image pair, ``[B_k]^T [A^-1 B_l]`` over all the points the two
+images share (Triggs et al. 2000, "Bundle adjustment - a modern synthesis",
+section 6, the reduced camera system).  The posterior covariance of every
+point and the redundancy number of every observation use the same image-pair
+segments with the LxL blocks of ``S^-1`` (one gather per image pair).
 """
 
 from __future__ import annotations
@@ -21,59 +24,159 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PointCameraSystem"]
-
-_CHUNK = 250_000
+__all__ = ["PointCameraSystem", "SchurLayout"]
 
 
-def _same_key_pairs(keys_sorted: np.ndarray, max_count: int):
-    """Yield (i, j) index arrays (i < j) of equal keys in a sorted key array."""
-    n = len(keys_sorted)
-    for d in range(1, max_count):
-        if d >= n:
-            break
-        same = np.flatnonzero(keys_sorted[d:] == keys_sorted[:-d])
-        if same.size == 0:
-            break
-        yield same, same + d
+def _bmm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched (k,r,s) @ (k,s,t) for small blocks (stacked matmul: 2-4x einsum here)."""
+    return np.matmul(a, b)
 
 
-def _chunks(n: int, size: int = _CHUNK):
-    for s in range(0, n, size):
-        yield slice(s, min(n, s + size))
+def _sum_by(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """Sum the rows of ``values`` (k, ...) into ``n`` bins given by ``index`` (k,)."""
+    flat = values.reshape(len(index), -1)
+    out = np.empty((n, flat.shape[1]))
+    for j in range(flat.shape[1]):
+        out[:, j] = np.bincount(index, weights=flat[:, j], minlength=n)
+    return out.reshape((n,) + values.shape[1:])
 
 
-def _add_block(mat: np.ndarray, rows: np.ndarray, cols: np.ndarray, blk: np.ndarray) -> None:
-    """``mat[rows, cols] += blk`` skipping the index -1 (fixed parameters)."""
-    r, c = rows >= 0, cols >= 0
-    mat[np.ix_(rows[r], cols[c])] += blk[np.ix_(r, c)]
+@dataclass
+class SchurLayout:
+    """Index structure of a network, fixed over the iterations.
 
-
-class _Scatter:
-    """Accumulate small dense blocks into a dense (n,n) matrix.
-
-    Index -1 (a fixed parameter) goes to a dummy row/column n that is dropped.
+    Attributes
+    ----------
+    nc
+        Number of free camera parameters (the dummy column ``nc`` takes the fixed ones).
+    union
+        Interior parameters (indices of :data:`~pyheracles.bundle.camera.IO_NAMES`)
+        free for at least one camera; ``L = len(union) + 6``.
+    img_cols
+        (n_img, L) camera columns of every image (interior of its camera, then
+        exterior), fixed parameters mapped to ``nc``.
+    img_order, img_bounds
+        Observations sorted by image, and the slice of each image.
+    pair_a, pair_b, pair_bounds, pair_img
+        Observation pairs (a, b) of the same point, image(a) < image(b), sorted by
+        image pair; ``pair_bounds`` the slice of each image pair, ``pair_img``
+        (n_seg, 2) the image pair.
     """
 
-    def __init__(self, n: int) -> None:
-        self.n = n
-        self.flat = np.zeros((n + 1) * (n + 1))
+    nc: int
+    n_points: int
+    union: np.ndarray
+    obs_point: np.ndarray
+    obs_image: np.ndarray
+    obs_cols: np.ndarray  # (m,L) padded camera columns of every observation
+    img_cols: np.ndarray
+    img_order: np.ndarray
+    img_bounds: np.ndarray
+    pair_a: np.ndarray
+    pair_b: np.ndarray
+    pair_bounds: np.ndarray
+    pair_img: np.ndarray
+    scatter_index: np.ndarray  # flat (nc+1)^2 index of every block entry (see blocks_to_matrix)
 
-    def add(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
-        """rows (k,a), cols (k,b), vals (k,a,b)."""
-        n1 = self.n + 1
-        r = np.where(rows >= 0, rows, self.n)
-        c = np.where(cols >= 0, cols, self.n)
-        idx = (r[:, :, None] * n1 + c[:, None, :]).ravel()
-        if idx.size >= self.flat.size // 4:
-            # Many entries for a small matrix: bincount is the fastest scatter.
-            self.flat += np.bincount(idx, weights=vals.ravel(), minlength=self.flat.size)
-        else:
-            # np.add.at costs O(k), where a bincount would cost O(n^2) per call.
-            np.add.at(self.flat, idx, vals.ravel())
+    @property
+    def width(self) -> int:
+        return int(self.img_cols.shape[1])
 
-    def matrix(self) -> np.ndarray:
-        return self.flat.reshape(self.n + 1, self.n + 1)[: self.n, : self.n]
+    @classmethod
+    def from_network(cls, net) -> SchurLayout:
+        p = net.project
+        nc = net.n_cam_cols
+        union = np.flatnonzero(net.io_free.any(axis=0))
+        img_cols = np.concatenate([net.io_col[p.image_camera][:, union], net.eo_col], axis=1)
+        img_cols = np.where(img_cols >= 0, img_cols, nc)
+        n_img = p.n_images
+        obs_image = np.asarray(p.obs_image)
+        obs_point = np.asarray(p.obs_point)
+        img_order = np.argsort(obs_image, kind="stable")
+        img_bounds = np.searchsorted(obs_image[img_order], np.arange(n_img + 1))
+        # Pairs of observations of the same point (each unordered pair once).
+        order = np.lexsort((obs_image, obs_point))
+        keys = obs_point[order]
+        pa, pb = [], []
+        for d in range(1, len(keys)):
+            same = np.flatnonzero(keys[d:] == keys[:-d])
+            if same.size == 0:
+                break
+            pa.append(order[same])
+            pb.append(order[same + d])
+        pair_a = np.concatenate(pa) if pa else np.zeros(0, int)
+        pair_b = np.concatenate(pb) if pb else np.zeros(0, int)
+        # Sorted by point then image, so image(a) < image(b) (one measurement per image
+        # and point after Project.validate).
+        key = obs_image[pair_a].astype(np.int64) * n_img + obs_image[pair_b]
+        srt = np.argsort(key, kind="stable")
+        pair_a, pair_b, key = pair_a[srt], pair_b[srt], key[srt]
+        starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]) if key.size else np.zeros(0, int)
+        pair_bounds = np.append(starts, key.size)
+        seg_key = key[starts]
+        pair_img = np.column_stack([seg_key // n_img, seg_key % n_img]).astype(int)
+        # Where each LxL block lands in the flat (nc+1)^2 matrix: the image blocks
+        # (i, i), the pair blocks (i, j) and their mirrors (j, i).
+        n1 = nc + 1
+
+        def flat(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+            return (rows[:, :, None] * n1 + cols[:, None, :]).ravel()
+
+        ci, cj = img_cols[pair_img[:, 0]], img_cols[pair_img[:, 1]]
+        scatter_index = np.concatenate([flat(img_cols, img_cols), flat(ci, cj), flat(cj, ci)])
+        return cls(
+            nc=nc,
+            n_points=p.n_points,
+            union=union,
+            obs_point=obs_point,
+            obs_image=obs_image,
+            obs_cols=img_cols[obs_image],
+            img_cols=img_cols,
+            img_order=img_order,
+            img_bounds=img_bounds,
+            pair_a=pair_a,
+            pair_b=pair_b,
+            pair_bounds=pair_bounds,
+            pair_img=pair_img,
+            scatter_index=scatter_index,
+        )
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.pair_bounds) - 1
+
+    def images(self):
+        """Yield (image, cols (L,), observation indices) of every image."""
+        for i in range(len(self.img_bounds) - 1):
+            yield i, self.img_cols[i], self.img_order[self.img_bounds[i] : self.img_bounds[i + 1]]
+
+    def image_pairs(self):
+        """Yield (segment, image i, image j, obs in i, obs in j) of every image pair
+        sharing points."""
+        b = self.pair_bounds
+        for s in range(len(b) - 1):
+            i, j = self.pair_img[s]
+            yield s, i, j, self.pair_a[b[s] : b[s + 1]], self.pair_b[b[s] : b[s + 1]]
+
+    def blocks_to_matrix(self, img_blocks: np.ndarray, pair_blocks: np.ndarray) -> np.ndarray:
+        """Sum (n_img,L,L) image blocks and (n_pairs,L,L) pair blocks (and their
+        transposes) into the (nc,nc) camera matrix (one bincount)."""
+        n1 = self.nc + 1
+        vals = np.concatenate(
+            [img_blocks.ravel(), pair_blocks.ravel(), pair_blocks.transpose(0, 2, 1).ravel()]
+        )
+        out = np.bincount(self.scatter_index, weights=vals, minlength=n1 * n1)
+        return out.reshape(n1, n1)[: self.nc, : self.nc]
+
+    def matrix_blocks(self, mat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The (n_img,L,L) image and (n_pairs,L,L) pair blocks of an (nc,nc) matrix."""
+        n1 = self.nc + 1
+        pad = np.zeros((n1, n1))
+        pad[: self.nc, : self.nc] = mat
+        w = self.width
+        n_img = self.img_cols.shape[0]
+        vals = pad.ravel()[self.scatter_index[: (n_img + self.n_pairs) * w * w]]
+        return vals[: n_img * w * w].reshape(n_img, w, w), vals[n_img * w * w :].reshape(-1, w, w)
 
 
 @dataclass
@@ -84,56 +187,47 @@ class PointCameraSystem:
     ``g_op`` the gradient ``J^T r`` parts.
     """
 
-    nc: int
+    layout: SchurLayout
     a: np.ndarray  # (N,3,3)
     g_op: np.ndarray  # (N,3)
     c: np.ndarray  # (nc,nc)
     g_cam: np.ndarray  # (nc,)
-    b_eo: np.ndarray  # (m,3,6) per observation
-    eo_cols: np.ndarray  # (m,6)
-    b_io: np.ndarray  # (G,3,q) per (point, camera) group
-    io_cols: np.ndarray  # (G,q)
-    obs_point: np.ndarray  # (m,)
-    group_point: np.ndarray  # (G,)
-    order_obs: np.ndarray  # observations sorted by point
-    order_grp: np.ndarray  # groups sorted by point
-    max_rays: int
-    max_groups: int
-    obs_image: np.ndarray  # (m,)
-    img_order: np.ndarray  # observations sorted by image
-    img_bounds: np.ndarray  # (n_img+1,) slices of img_order per image
-    img_eo_cols: np.ndarray  # (n_img,6)
+    b: np.ndarray  # (m,3,L) per observation
+    jp: np.ndarray  # (m,2,3) weighted point Jacobian (fixed coordinates zeroed)
+    jc: np.ndarray  # (m,2,L) weighted camera Jacobian
     a_inv: np.ndarray | None = None
+    t: np.ndarray | None = None  # (m,3,L) A^-1 B per observation
     s: np.ndarray | None = None
+
+    @property
+    def nc(self) -> int:
+        return self.layout.nc
 
     # ------------------------------------------------------------------ build
     @classmethod
-    def build(cls, net, st, r: np.ndarray, jac) -> PointCameraSystem:
+    def build(cls, net, st, r: np.ndarray, jac, layout: SchurLayout | None = None):
+        """Normal-equation blocks of the linearisation ``jac`` at residual ``r``."""
+        lay = layout if layout is not None else SchurLayout.from_network(net)
         p = net.project
         d_xyz, d_eo, d_io = jac
         w = net.sqrt_w[:, :, None]
-        jp = d_xyz * w * net.op_free[p.obs_point][:, None, :]
-        je = d_eo * w
+        jp = d_xyz * w
+        if not net.op_free.all():
+            jp = jp * net.op_free[p.obs_point][:, None, :]
+        # Columns of fixed parameters go to the dummy column nc (dropped everywhere).
+        jc = np.concatenate([d_io[:, :, lay.union], d_eo], axis=2) * w
         m = jp.shape[0]
         npt = p.n_points
+        nc = lay.nc
         r_img = r[: 2 * m].reshape(m, 2)
-        # Interior parameters free for at least one camera ("union"), q of them.
-        union = np.flatnonzero(net.io_free.any(axis=0))
-        ji = d_io[:, :, union] * w
-        io_cols_obs = net.io_col[net.obs_cam][:, union]  # (m,q)
-        eo_cols = net.eo_col[p.obs_image]  # (m,6)
-        nc = net.n_cam_cols
         # Point blocks and gradient.
-        jtj = jp.transpose(0, 2, 1) @ jp
-        a = np.zeros((npt, 3, 3))
-        for i in range(3):
-            for j in range(i, 3):
-                a[:, i, j] = np.bincount(p.obs_point, weights=jtj[:, i, j], minlength=npt)
-                a[:, j, i] = a[:, i, j]
-        jtr = np.einsum("mki,mk->mi", jp, r_img)
-        g_op = np.column_stack(
-            [np.bincount(p.obs_point, weights=jtr[:, i], minlength=npt) for i in range(3)]
-        )
+        jtj = np.empty((m, 6))
+        for n_, (i, j) in enumerate(((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))):
+            jtj[:, n_] = jp[:, 0, i] * jp[:, 0, j] + jp[:, 1, i] * jp[:, 1, j]
+        u = _sum_by(p.obs_point, jtj, npt)
+        a = u[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(npt, 3, 3)
+        jtr = jp[:, 0, :] * r_img[:, 0:1] + jp[:, 1, :] * r_img[:, 1:2]
+        g_op = _sum_by(p.obs_point, jtr, npt)
         op_m = np.isfinite(net.op_prior_std)
         if np.any(op_m):
             wgt = np.where(op_m, 1.0 / net.op_prior_std**2, 0.0)
@@ -145,99 +239,30 @@ class PointCameraSystem:
         a[fi, :, fj] = 0.0
         a[fi, fj, fj] = 1.0
         g_op[fixed] = 0.0
-        # Camera block C = Jc^T Jc and gradient: every observation of an image has the
-        # same camera columns, so C is a sum of one dense Gram matrix per image (BLAS).
-        n_img = p.n_images
-        order_img = np.argsort(p.obs_image, kind="stable")
-        bounds = np.searchsorted(p.obs_image[order_img], np.arange(n_img + 1))
-        img_cols = np.concatenate([net.io_col[p.image_camera][:, union], net.eo_col], axis=1)
-        c = np.zeros((nc, nc))
-        for i in range(n_img):
-            idx = order_img[bounds[i] : bounds[i + 1]]
-            if not len(idx):
-                continue
-            x = np.concatenate([ji[idx], je[idx]], axis=2).reshape(-1, len(union) + 6)
-            _add_block(c, img_cols[i], img_cols[i], x.T @ x)
-        g_cam = np.zeros(nc + 1)
-        jtr_c = np.concatenate(
-            [np.einsum("mki,mk->mi", ji, r_img), np.einsum("mki,mk->mi", je, r_img)], axis=1
-        )
-        cols_all = np.concatenate([io_cols_obs, eo_cols], axis=1)
-        ok = cols_all >= 0
-        g_cam[:nc] = np.bincount(cols_all[ok], weights=jtr_c[ok], minlength=nc)[:nc]
-        g_cam = g_cam[:nc]
+        # Camera block C: one dense Gram matrix per image (every observation of an
+        # image has the same camera columns).
+        width = lay.width
+        gram = np.zeros((len(lay.img_cols), width, width))
+        for i, _, idx in lay.images():
+            x = jc[idx].reshape(-1, width)
+            gram[i] = x.T @ x
+        ext = lay.blocks_to_matrix(gram, np.zeros((lay.n_pairs, width, width)))
+        jtr_c = jc[:, 0, :] * r_img[:, 0:1] + jc[:, 1, :] * r_img[:, 1:2]
+        g_cam = np.bincount(lay.obs_cols.ravel(), weights=jtr_c.ravel(), minlength=nc + 1)[:nc]
+        c = ext.copy()
         eo_m = np.isfinite(net.eo_prior_std)
         if np.any(eo_m):
             idx = net.eo_col[eo_m]
             c[idx, idx] += 1.0 / net.eo_prior_std[eo_m] ** 2
             g_cam[idx] += (st.eo[eo_m] - net.eo_prior[eo_m]) / net.eo_prior_std[eo_m] ** 2
-        # Coupling blocks.
-        b_eo = jp.transpose(0, 2, 1) @ je  # (m,3,6)
-        ncam = len(p.cameras)
-        gkey = p.obs_point * ncam + net.obs_cam
-        ukeys, ginv = np.unique(gkey, return_inverse=True)
-        n_grp = len(ukeys)
-        bio_obs = jp.transpose(0, 2, 1) @ ji  # (m,3,q)
-        q = len(union)
-        b_io = np.zeros((n_grp, 3, q))
-        for i in range(3):
-            for j in range(q):
-                b_io[:, i, j] = np.bincount(ginv, weights=bio_obs[:, i, j], minlength=n_grp)
-        group_point = ukeys // ncam
-        group_cam = ukeys % ncam
-        io_cols = net.io_col[group_cam][:, union] if q else np.zeros((n_grp, 0), int)
-        order_obs = np.argsort(p.obs_point, kind="stable")
-        order_grp = np.argsort(group_point, kind="stable")
-        rays = np.bincount(p.obs_point, minlength=npt)
-        grp_count = np.bincount(group_point, minlength=npt)
-        return cls(
-            nc=nc,
-            a=a,
-            g_op=g_op,
-            c=c,
-            g_cam=g_cam,
-            b_eo=b_eo,
-            eo_cols=eo_cols,
-            b_io=b_io,
-            io_cols=io_cols,
-            obs_point=p.obs_point,
-            group_point=group_point,
-            order_obs=order_obs,
-            order_grp=order_grp,
-            max_rays=int(rays.max()) if npt else 0,
-            max_groups=int(grp_count.max()) if npt else 0,
-            obs_image=p.obs_image,
-            img_order=order_img,
-            img_bounds=bounds,
-            img_eo_cols=net.eo_col,
-        )
+        # Coupling blocks B_k = Jp_k^T Jc_k (3xL).
+        b = _bmm(jp.transpose(0, 2, 1), jc)
+        return cls(layout=lay, a=a, g_op=g_op, c=c, g_cam=g_cam, b=b, jp=jp, jc=jc)
 
     # ------------------------------------------------------------- reduce
-    def _pairs_obs_obs(self):
-        """(k, l) observation pairs of the same point, k != l (each unordered pair once)."""
-        keys = self.obs_point[self.order_obs]
-        for i, j in _same_key_pairs(keys, self.max_rays):
-            yield self.order_obs[i], self.order_obs[j]
-
-    def _pairs_grp_grp(self):
-        keys = self.group_point[self.order_grp]
-        for i, j in _same_key_pairs(keys, self.max_groups):
-            yield self.order_grp[i], self.order_grp[j]
-
-    def _pairs_grp_obs(self):
-        """(g, k) pairs: every group of the point of every observation."""
-        npt = self.a.shape[0]
-        counts = np.bincount(self.group_point, minlength=npt)
-        start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        k_all = np.arange(len(self.obs_point))
-        for j in range(self.max_groups):
-            pt = self.obs_point
-            ok = counts[pt] > j
-            k = k_all[ok]
-            yield self.order_grp[start[pt[ok]] + j], k
-
     def reduce(self, lam: float = 0.0, raise_singular=None) -> None:
         """Inverse point blocks and the reduced camera matrix (Marquardt damping ``lam``)."""
+        lay = self.layout
         a = self.a
         c = self.c
         if lam > 0:
@@ -251,135 +276,68 @@ class PointCameraSystem:
         if np.any(bad) and raise_singular is not None:
             raise_singular(np.flatnonzero(bad))
         self.a_inv = np.linalg.inv(a)
-        ainv = self.a_inv
-        sc = _Scatter(self.nc)  # symmetric terms
-        pairs = _Scatter(self.nc)  # one of the two mirrored blocks of every pair term
-        pt_obs = self.obs_point
-        t_eo = ainv[pt_obs] @ self.b_eo
-        # EO-EO diagonal terms: one Gram-like product per image (same columns).
-        diag = np.zeros((self.nc, self.nc))
-        for i in range(len(self.img_bounds) - 1):
-            idx = self.img_order[self.img_bounds[i] : self.img_bounds[i + 1]]
-            if len(idx):
-                x = self.b_eo[idx].reshape(-1, 6)
-                y = t_eo[idx].reshape(-1, 6)
-                _add_block(diag, self.img_eo_cols[i], self.img_eo_cols[i], -(x.T @ y))
-        # EO-EO pairs (k, l) of the same point: block (k, l), mirrored at the end.
-        for k, l_ in self._pairs_obs_obs():
-            for sl in _chunks(len(k)):
-                kk, ll = k[sl], l_[sl]
-                blk = -self.b_eo[kk].transpose(0, 2, 1) @ t_eo[ll]
-                pairs.add(self.eo_cols[kk], self.eo_cols[ll], blk)
-        if self.b_io.shape[2]:
-            gp = self.group_point
-            t_io = ainv[gp] @ self.b_io
-            sc.add(self.io_cols, self.io_cols, -self.b_io.transpose(0, 2, 1) @ t_io)
-            for g, h in self._pairs_grp_grp():
-                blk = -self.b_io[g].transpose(0, 2, 1) @ t_io[h]
-                pairs.add(self.io_cols[g], self.io_cols[h], blk)
-            for g, k in self._pairs_grp_obs():
-                for sl in _chunks(len(k)):
-                    gg, kk = g[sl], k[sl]
-                    blk = -t_io[gg].transpose(0, 2, 1) @ self.b_eo[kk]
-                    pairs.add(self.io_cols[gg], self.eo_cols[kk], blk)
-        m = pairs.matrix()
-        self.s = c + diag + sc.matrix() + m + m.T
+        self.t = _bmm(self.a_inv[lay.obs_point], self.b)
+        width = lay.width
+        b, t = self.b, self.t
+        img_blk = np.zeros((len(lay.img_cols), width, width))
+        pair_blk = np.empty((lay.n_pairs, width, width))
+        for i, _, idx in lay.images():
+            img_blk[i] = b[idx].reshape(-1, width).T @ t[idx].reshape(-1, width)
+        for s, _, _, ka, kb in lay.image_pairs():
+            pair_blk[s] = b[ka].reshape(-1, width).T @ t[kb].reshape(-1, width)
+        self.s = c - lay.blocks_to_matrix(img_blk, pair_blk)
 
     # -------------------------------------------------------------- solve
     def back_substitute(self, dc: np.ndarray) -> np.ndarray:
-        """Point step ``dp_i = A_i^-1 (-g_i - B_i dc)`` (N,3)."""
-        npt = self.a.shape[0]
-        dcz = np.append(dc, 0.0)  # index -1 -> 0
-        rhs = -self.g_op.copy()
-        v = np.einsum("mij,mj->mi", self.b_eo, dcz[self.eo_cols])
-        for i in range(3):
-            rhs[:, i] -= np.bincount(self.obs_point, weights=v[:, i], minlength=npt)
-        if self.b_io.shape[2]:
-            v = np.einsum("gij,gj->gi", self.b_io, dcz[self.io_cols])
-            for i in range(3):
-                rhs[:, i] -= np.bincount(self.group_point, weights=v[:, i], minlength=npt)
+        """Point step ``dp_p = A_p^-1 (-g_p - B_p dc)`` (N,3)."""
+        lay = self.layout
+        dcz = np.append(dc, 0.0)  # dummy column -> 0
+        v = np.einsum("mij,mj->mi", self.b, dcz[lay.obs_cols])
+        rhs = -self.g_op - _sum_by(lay.obs_point, v, lay.n_points)
         return np.einsum("nij,nj->ni", self.a_inv, rhs)
 
     def reduced_rhs(self) -> np.ndarray:
         """``-(g_cam - B^T A^-1 g_op)``."""
+        lay = self.layout
         y = np.einsum("nij,nj->ni", self.a_inv, self.g_op)  # A^-1 g
-        out = self.g_cam.copy()
-        acc = np.zeros(self.nc + 1)
-        v = np.einsum("mia,mi->ma", self.b_eo, y[self.obs_point])
-        cols = np.where(self.eo_cols >= 0, self.eo_cols, self.nc)
-        acc += np.bincount(cols.ravel(), weights=v.ravel(), minlength=self.nc + 1)
-        if self.b_io.shape[2]:
-            v = np.einsum("gia,gi->ga", self.b_io, y[self.group_point])
-            cols = np.where(self.io_cols >= 0, self.io_cols, self.nc)
-            acc += np.bincount(cols.ravel(), weights=v.ravel(), minlength=self.nc + 1)
-        return -(out - acc[: self.nc])
+        v = np.einsum("mia,mi->ma", self.b, y[lay.obs_point])
+        acc = np.bincount(lay.obs_cols.ravel(), weights=v.ravel(), minlength=lay.nc + 1)
+        return -(self.g_cam - acc[: lay.nc])
 
     # ---------------------------------------------------------- posterior
-    def _blocks(self, cov_cam: np.ndarray):
-        """T blocks (A^-1 B) of observations (EO) and groups (IO)."""
-        ainv = self.a_inv
-        t_eo = ainv[self.obs_point] @ self.b_eo
-        t_io = ainv[self.group_point] @ self.b_io if self.b_io.shape[2] else None
-        return t_eo, t_io
+    def posterior(self, cov_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unscaled point covariance blocks and the hat-matrix diagonal of the images.
 
-    def point_covariances(self, cov_cam: np.ndarray) -> np.ndarray:
-        """(N,3,3) unscaled point covariance blocks ``A^-1 + T S^-1 T^T``."""
-        npt = self.a.shape[0]
-        out = self.a_inv.copy()
-        qz = np.zeros((self.nc + 1, self.nc + 1))
-        qz[: self.nc, : self.nc] = cov_cam
-        t_eo, t_io = self._blocks(cov_cam)
-        ec = np.where(self.eo_cols >= 0, self.eo_cols, self.nc)
-        flat = np.zeros(npt * 9)
+        With ``Q = S^-1`` and ``T_p = A_p^-1 B_p``, the point block is
+        ``Q_pp = A_p^-1 + T_p Q T_p^T`` and the cross block ``Q_pc = -T_p Q``.  For
+        every observation, ``V_k = sum_{l in p} T_l Q[c_l, c_k] = -Q_pc[:, c_k]``
+        is accumulated over the image pairs, then
 
-        def add(pts, ta, ca, tb, cb, sym):
-            sub = qz[ca[:, :, None], cb[:, None, :]]  # (k,a,b)
-            blk = (ta @ sub) @ tb.transpose(0, 2, 1)
-            if sym:
-                blk = blk + blk.transpose(0, 2, 1)
-            idx = (pts * 9)[:, None] + np.arange(9)[None, :]
-            return np.bincount(idx.ravel(), weights=blk.reshape(-1, 9).ravel(),
-                               minlength=npt * 9)  # fmt: skip
+            Q_pp = A^-1 + sum_k V_k T_k^T,
+            h_k = Jp_k Q_pp Jp_k^T + Jc_k Q[c_k, c_k] Jc_k^T - 2 Jp_k V_k Jc_k^T
 
-        for sl in _chunks(len(self.obs_point)):
-            flat += add(self.obs_point[sl], t_eo[sl], ec[sl], t_eo[sl], ec[sl], False)
-        for k, l_ in self._pairs_obs_obs():
-            for sl in _chunks(len(k)):
-                kk, ll = k[sl], l_[sl]
-                flat += add(self.obs_point[kk], t_eo[kk], ec[kk], t_eo[ll], ec[ll], True)
-        if t_io is not None:
-            ic = np.where(self.io_cols >= 0, self.io_cols, self.nc)
-            gp = self.group_point
-            flat += add(gp, t_io, ic, t_io, ic, False)
-            for g, h in self._pairs_grp_grp():
-                flat += add(gp[g], t_io[g], ic[g], t_io[h], ic[h], True)
-            for g, k in self._pairs_grp_obs():
-                for sl in _chunks(len(k)):
-                    gg, kk = g[sl], k[sl]
-                    flat += add(gp[gg], t_io[gg], ic[gg], t_eo[kk], ec[kk], True)
-        return out + flat.reshape(npt, 3, 3)
+        (diagonal of ``J N^-1 J^T``, weighted; redundancy number ``1 - h``).
 
-    def cross_covariances(self, cov_cam: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Per observation k: ``Q_pc[:, cols_k] = -sum_u T_u S^-1[cols_u, cols_k]`` (m,3,L)."""
-        m = len(self.obs_point)
-        qz = np.zeros((self.nc + 1, self.nc + 1))
-        qz[: self.nc, : self.nc] = cov_cam
-        t_eo, t_io = self._blocks(cov_cam)
-        ec = np.where(self.eo_cols >= 0, self.eo_cols, self.nc)
-        cz = np.where(cols >= 0, cols, self.nc)
-        out = np.zeros((m, 3, cols.shape[1]))
-        for sl in _chunks(m):
-            out[sl] -= t_eo[sl] @ qz[ec[sl][:, :, None], cz[sl][:, None, :]]
-        for k, l_ in self._pairs_obs_obs():
-            for sl in _chunks(len(k)):
-                kk, ll = k[sl], l_[sl]
-                v1 = t_eo[ll] @ qz[ec[ll][:, :, None], cz[kk][:, None, :]]
-                out[kk] -= v1  # unique within one offset
-                v2 = t_eo[kk] @ qz[ec[kk][:, :, None], cz[ll][:, None, :]]
-                out[ll] -= v2
-        if t_io is not None:
-            ic = np.where(self.io_cols >= 0, self.io_cols, self.nc)
-            for g, k in self._pairs_grp_obs():
-                v = t_io[g] @ qz[ic[g][:, :, None], cz[k][:, None, :]]
-                out[k] -= v
-        return out
+        Returns
+        -------
+        cov_points : (N,3,3); hat : (m,2).
+        """
+        lay = self.layout
+        width = lay.width
+        q_img, q_pair = lay.matrix_blocks(cov_cam)
+        t = self.t
+        v = np.zeros_like(t)
+        hat_c = np.zeros(self.jc.shape[:2])
+        for i, _, idx in lay.images():
+            v[idx] += (t[idx].reshape(-1, width) @ q_img[i]).reshape(-1, 3, width)
+            x = self.jc[idx].reshape(-1, width)
+            hat_c[idx] = np.einsum("kl,kl->k", x @ q_img[i], x).reshape(-1, 2)
+        for s, _, _, ka, kb in lay.image_pairs():
+            v[kb] += (t[ka].reshape(-1, width) @ q_pair[s]).reshape(-1, 3, width)
+            v[ka] += (t[kb].reshape(-1, width) @ q_pair[s].T).reshape(-1, 3, width)
+        vt = _bmm(v, t.transpose(0, 2, 1))
+        q_pp = self.a_inv + _sum_by(lay.obs_point, vt, lay.n_points)
+        jp = self.jp
+        hat_p = np.einsum("kra,kab,krb->kr", jp, q_pp[lay.obs_point], jp)
+        hat_x = np.einsum("kra,kal,krl->kr", jp, v, self.jc)
+        return q_pp, hat_p + hat_c - 2.0 * hat_x

@@ -58,7 +58,7 @@ def _floats(values: list[str], path: Path, what: str) -> np.ndarray:
 
 
 def _resolve(base: Path, text: str, here: Path) -> Path:
-    text = text.replace("$HERE", str(here))
+    text = text.replace("$HERE", str(here.resolve()))
     p = Path(text)
     return p if p.is_absolute() else base / p
 
