@@ -407,6 +407,23 @@ def test_isprs_samples_auto(
 
 
 @pytest.mark.realdata
+def test_isprs_sparse_auto_beats_smrf(shared_data: Path) -> None:
+    """Issue 17: on a sparse cloud (ISPRS sample 22 thinned to 20 %, spacing 2.4 m, as the
+    rural ISPRS samples) a terrain raster of the spacing rejected crest and terrace ground
+    (6.3 % total error against plain SMRF's 5.0 %); the cell is now the geometric mean of
+    the spacing and 1 m."""
+    xyz, cls = _read(shared_data / "isprs_filtertest" / "samp22-utm.laz")
+    keep = np.random.default_rng(0).random(len(xyz)) < 0.2
+    xyz, ref = xyz[keep], cls[keep] == 2
+    auto = extract_ground(xyz, "auto")
+    assert auto.params.seed.cell_m == pytest.approx(np.sqrt(auto.scene.spacing_m), abs=0.01)
+    total_auto, kappa_auto = _kappa_total_error(ref, auto.mask)
+    total_smrf, _ = _kappa_total_error(ref, extract_ground(xyz, "smrf").mask)
+    assert total_auto <= total_smrf
+    assert kappa_auto >= 0.89
+
+
+@pytest.mark.realdata
 def test_ahn3_tile_precision_recall(shared_data: Path) -> None:
     xyz, cls = _read(shared_data / "delft_ahn3" / "ahn3_tile1.laz")
     result = extract_ground(xyz, "auto")

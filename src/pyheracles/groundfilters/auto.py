@@ -160,9 +160,18 @@ class AutoParams:
 def auto_params(scene: SceneMeasures) -> AutoParams:
     """Automatic ground filter parameters for a measured scene.
 
-    - cell (SMRF and refinement): the point spacing, at least 1 m (Pingel et al. 2013 use
-      1 m on the ISPRS samples, spacing 1-1.5 m; a finer terrain raster than 1 m follows
-      kerbs and low vegetation instead of the terrain and costs four times more);
+    - cell (SMRF and refinement): the geometric mean of the point spacing ``s`` and 1 m,
+      at least 1 m: ``max(1, sqrt(s / 1 m)) m``.  Pingel et al. (2013) use 1 m on the ISPRS
+      samples (spacing 1-1.5 m); a finer terrain raster than 1 m follows kerbs and low
+      vegetation instead of the terrain and costs four times more.  A cell of the spacing
+      itself (the rule before issue 17) made the terrain raster too coarse on sparse
+      clouds: crests and terrace edges fall between the cell centres and their ground is
+      rejected.  Measured on the seven ISPRS samples thinned at random to 50 / 20 / 10 %
+      (spacing 1.5 / 2.4 / 3.4 m, as the rural ISPRS samples): mean total error 4.38 /
+      5.85 / 5.84 % with the spacing, 4.33 / 5.13 / 5.39 % with this rule, against plain
+      SMRF's 4.35 / 5.33 / 6.99 %; unthinned 4.31 -> 4.20 %.  On the terrain family
+      (seeds 0-29, 0.1-20 points/m^2) the mean total error goes from 5.59 to 5.38 % and
+      every draw is within 0.5 points of SMRF (29 of 30 before);
     - SMRF window radius: half the largest object size plus one cell, so that the disk no
       longer fits inside the largest building (e.g. ``sqrt(area)`` of the largest GIS
       footprint, as step 1 passes it) and the opening removes it;
@@ -180,7 +189,7 @@ def auto_params(scene: SceneMeasures) -> AutoParams:
       (:attr:`SMRFParams.low_cluster_window_m`);
     - the refinement threshold comes from the measured roughness of the seeds.
     """
-    cell = round(max(1.0, scene.spacing_m), 2)
+    cell = round(max(1.0, float(np.sqrt(scene.spacing_m))), 2)
     window = round(0.5 * scene.max_object_size_m + cell, 2)
     seed = SMRFParams(
         cell_m=cell,
