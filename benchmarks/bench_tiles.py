@@ -3,7 +3,7 @@
     python benchmarks/bench_tiles.py ahn3 [--n 2 3] [--workers 2]
     python benchmarks/bench_tiles.py ground [--n 2 3]
     python benchmarks/bench_tiles.py area --points 1e8 [--single-points 1e7] [--workers 2]
-        [--sweep 4 --first-seed 0] [--side 200 --density 20] [--root DIR]
+        [--sweep 8 --first-seed 0] [--side 200 --density 20] [--kill block] [--root DIR]
 
 ``ahn3``: AHN3 tile 1 + BGT cut into n x n tiles: per-point label and ground agreement with
 the single-cloud run, objects found once, the buildings crossing a cut found once and
@@ -13,9 +13,14 @@ DTM on the same world-aligned cells.  ``area``: a generated area written tile by
 disk (never the whole area in memory): ``--sweep`` complexes of the ``complex`` family
 (seeds ``--first-seed`` ...), each on a ``--side`` m tile, repeated over a grid of tiles by
 moving their LAS header offsets (the compressed points are the same bytes) with their GIS
-layers moved alike, until ``--points``; peak resident memory per worker and points/s of
-the tiled run on ``--workers`` workers, against the single-cloud run of a ``--single-points``
-block (merged into one file by chunks) and the tiled run of that same block.
+layers moved alike, until ``--points``.  Then, in one invocation: the single-cloud run of a
+``--single-points`` block (its first tiles merged into one file by chunks; step 1 alone and
+end to end), the tiled run of that block and, with ``--kill block|area|both``, the same
+tiled run again with one of the ``--workers`` Dask workers SIGKILLed mid-way (resumed if a
+tile failed) and its outputs compared with the uninterrupted run's (sha256 of every tile's
+point records and tables, the merged ``objects.gpkg``, the tile index); then the tiled run
+of the whole area.  Peak memory per worker from the tasks (``ru_maxrss``) and from psutil
+sampling, points/s, load averages; a final ``area summary`` JSON line.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import argparse
 import json
 import math
 import os
+import signal
 import struct
 import tempfile
 import time
@@ -217,8 +223,11 @@ def generate_area(
             moved["geometry"] = shapely.transform(gdf.geometry.to_numpy(), lambda p, d=shift: p + d)
             moved["tile_source"] = f"{i}_{j}"
             parts[c].append(moved)
+    # one layer for the whole area, its features numbered as read_layer numbers a file's
     layers = {c: gpd.GeoDataFrame(pd.concat(v, ignore_index=True), crs=v[0].crs)
               for c, v in parts.items()}  # fmt: skip
+    for gdf in layers.values():
+        gdf["source_fid"] = np.arange(len(gdf), dtype=np.int64)
     if not (root / "layers.gpkg").is_file():
         for c, gdf in layers.items():
             gdf.to_file(root / "layers.gpkg", layer=c, engine="pyogrio")
@@ -243,7 +252,126 @@ def merge_block(tiles: Path, cells: list[tuple[int, int]], dst: Path) -> int:
     return n
 
 
+class Watch:
+    """Samples the resident memory of this process's Dask worker processes (psutil) in a
+    thread; optionally SIGKILLs one worker once ``kill_after`` tiles of phase 1 are done."""
+
+    def __init__(self, work: Path | None = None, kill_after: int | None = None) -> None:
+        import threading
+
+        self.work, self.kill_after = work, kill_after
+        self.peak_mb: dict[int, float] = {}
+        self.killed: dict | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+
+    @staticmethod
+    def workers() -> list:
+        import psutil
+
+        out = []
+        for p in psutil.Process().children(recursive=True):
+            try:
+                cmd = " ".join(p.cmdline())
+            except psutil.Error:
+                continue
+            if "spawn_main" in cmd or "forkserver" in cmd:
+                out.append(p)
+        return out
+
+    def _done(self) -> int:
+        if self.work is None or not self.work.is_dir():
+            return 0
+        return sum(1 for p in self.work.glob("*.pkl") if p.name != "parameters.pkl")
+
+    def _loop(self) -> None:
+        import psutil
+
+        while not self._stop.wait(0.5):
+            procs = self.workers()
+            for p in procs:
+                try:
+                    rss = p.memory_info().rss / 2**20
+                except psutil.Error:
+                    continue
+                self.peak_mb[p.pid] = max(self.peak_mb.get(p.pid, 0.0), rss)
+            if (self.killed is None and self.kill_after is not None and len(procs) >= 2
+                    and self._done() >= self.kill_after):  # fmt: skip
+                victim = procs[0]
+                self.killed = {"pid": victim.pid, "tiles_done_at_kill": self._done(),
+                               "rss_mb_at_kill": self.peak_mb.get(victim.pid, 0.0)}  # fmt: skip
+                os.kill(victim.pid, signal.SIGKILL)
+
+    def __enter__(self) -> Watch:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def digest(out: Path) -> dict[str, str]:
+    """sha256 of every output a user reads: per tile the point records of
+    ``segmented.laz`` (every dimension) and its ``objects.gpkg`` table; the merged
+    ``objects.gpkg``; the tile index (name, points, output; not the status)."""
+    import hashlib
+
+    def table(path: Path, columns: list[str] | None = None) -> str:
+        if not path.is_file():
+            return "absent"
+        t = pyogrio.read_dataframe(path, columns=columns)
+        if "geometry" in t:
+            t = t.to_wkb()
+        return hashlib.sha256(t.to_csv(index=False).encode()).hexdigest()
+
+    got = {}
+    for folder in sorted((out / "tiles").iterdir()):
+        if not folder.is_dir() or folder.name.startswith("."):
+            continue
+        h = hashlib.sha256()
+        with laspy.open(folder / "segmented.laz") as reader:
+            for chunk in reader.chunk_iterator(1_000_000):
+                h.update(chunk.array.tobytes())
+        got[folder.name] = h.hexdigest()
+        got[folder.name + "/objects"] = table(folder / "objects.gpkg")
+    got["objects.gpkg"] = table(out / "objects.gpkg")
+    index = pyogrio.read_dataframe(out / "tiles.gpkg", read_geometry=False)
+    got["tiles.gpkg"] = hashlib.sha256(
+        index[["name", "n_points", "output"]].to_csv(index=False).encode()
+    ).hexdigest()
+    return got
+
+
+def tiled_run(source: Path, layers: dict, out: Path, workers: int | None,
+              kill_after: int | None = None) -> dict:  # fmt: skip
+    """One tiled run with its workers' memory sampled; with ``kill_after``, one worker
+    SIGKILLed mid-way (Dask retries its task elsewhere) and, if a tile failed for good,
+    the same call again on the same folder (a resume)."""
+    load0 = os.getloadavg()
+    with Watch(out / ".work", kill_after) as w:
+        res = run_tiles(source, layers, out, workers=workers)
+    row = {"points": sum(t.n_points for t in res.catalog.tiles), "tiles": len(res.catalog.tiles),
+           "workers": workers, "points_per_s": res.points_per_s, "time_s": res.timings["total"],
+           "timings": res.timings, "objects": len(res.objects),
+           "buildings": int((res.objects["class"] == "building").sum()),
+           "peak_rss_mb_per_worker_tasks": res.peak_rss_mb,
+           "peak_rss_mb_per_worker_sampled": max(w.peak_mb.values(), default=0.0),
+           "worker_processes_seen": len(w.peak_mb), "status": sorted(set(res.status.values())),
+           "load_avg_before": load0, "load_avg_after": os.getloadavg()}  # fmt: skip
+    if kill_after is not None:
+        row["killed"] = w.killed
+        row["failed_after_kill"] = sorted(res.failed)
+        if res.failed:
+            t = time.perf_counter()
+            again = run_tiles(source, layers, out, workers=workers)
+            row["resume_time_s"] = time.perf_counter() - t
+            row["status_after_resume"] = sorted(set(again.status.values()))
+    return row
+
+
 def area(a: argparse.Namespace) -> None:
+    """Generate, single-cloud block, tiled block (reference and killed), tiled area."""
     root = Path(a.root) if a.root else Path(tempfile.mkdtemp(prefix="bench_tiles_"))
     t = time.perf_counter()
     tiles, layers, cells = generate_area(root, a.points, a.side, a.density, a.sweep,
@@ -252,56 +380,95 @@ def area(a: argparse.Namespace) -> None:
     total = sum(laspy.open(p).header.point_count for p in sorted(tiles.glob("*.laz")))
     emit(dataset="area", stage="generated", points=total, tiles=len(cells), time_s=gen_s,
          buildings=len(layers["building"]), root=str(root))  # fmt: skip
-    if a.single_points:
-        # the block: the first tiles in row order up to --single-points
-        per = total / len(cells)
-        m = max(1, min(len(cells), round(a.single_points / per)))
-        block = root / "block"
-        block.mkdir(exist_ok=True)
-        for i, j in cells[:m]:
-            name = f"area_{i:03d}_{j:03d}.laz"
-            if not (block / name).exists():
-                os.link(tiles / name, block / name)
-        whole = root / "block.laz"
-        if not whole.is_file():
-            merge_block(tiles, cells[:m], whole)
-        if not a.skip_single:
-            import subprocess
-            import sys
+    summary: dict = {"dataset": "area summary", "points": total, "tiles": len(cells),
+                     "workers": a.workers, "gis_buildings": len(layers["building"])}  # fmt: skip
+    # the block: the first tiles in row order up to --single-points
+    m = max(1, min(len(cells), round(a.single_points / (total / len(cells)))))
+    block = root / "block"
+    block.mkdir(exist_ok=True)
+    for i, j in cells[:m]:
+        name = f"area_{i:03d}_{j:03d}.laz"
+        if not (block / name).exists():
+            os.link(tiles / name, block / name)
+    whole = root / "block.laz"
+    if not whole.is_file():
+        merge_block(tiles, cells[:m], whole)
+    import subprocess
+    import sys
 
-            # the single-cloud run in its own process: its own peak memory
-            here = str(Path(__file__).parent)
-            code = (f"import json, sys; sys.path.insert(0, {here!r}); "
-                    f"from bench_tiles import single_run; "
-                    f"print(json.dumps(single_run({str(whole)!r}, {str(root)!r})))")  # fmt: skip
-            out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                 check=True).stdout.strip().splitlines()[-1]  # fmt: skip
-            emit(dataset="area block", stage="single", **json.loads(out))
-        if a.single_only:
-            return
-        res = run_tiles(block, layers, root / "out_block", workers=a.workers)
-        emit(dataset="area block", stage="tiled", points=sum(t.n_points for t in res.catalog.tiles),
-             tiles=m, workers=a.workers, points_per_s=res.points_per_s,
-             time_s=res.timings["total"], peak_rss_mb_per_worker=res.peak_rss_mb,
-             status=sorted(set(res.status.values())))  # fmt: skip
+    # the single-cloud run in its own process: its own peak memory
+    here = str(Path(__file__).parent)
+    code = (f"import json, os, sys; sys.path.insert(0, {here!r}); "
+            f"from bench_tiles import single_run; l0 = os.getloadavg(); "
+            f"r = single_run({str(whole)!r}, {str(root)!r}); "
+            f"r['load_avg_before'] = l0; r['load_avg_after'] = os.getloadavg(); "
+            f"print(json.dumps(r))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip().splitlines()[-1]  # fmt: skip
+    single = emit(dataset="area block", stage="single", **json.loads(out))
+    summary["single_points"] = single["points"]
+    summary["single_points_per_s"] = single["points_per_s"]
+    summary["single_end_to_end_points_per_s"] = single["end_to_end_points_per_s"]
+    summary["single_peak_rss_gb"] = single["peak_rss_gb"]
+    if a.single_only:
+        emit(**summary)
+        return
+    runs = {}
+    if a.kill in ("block", "both"):
+        ref = emit(dataset="area block", stage="tiled", **tiled_run(block, layers, root / "ob_ref",
+                                                                     a.workers))  # fmt: skip
+        killed = emit(dataset="area block", stage="tiled, one worker killed", **tiled_run(
+            block, layers, root / "ob_kill", a.workers, kill_after=max(1, m // 2)))  # fmt: skip
+        runs["block"] = (root / "ob_ref", root / "ob_kill", killed)
+        summary["block_tiled_points_per_s"] = ref["points_per_s"]
     if not a.block_only:
-        res = run_tiles(tiles, layers, root / "out", workers=a.workers)
-        emit(dataset="area", stage="tiled", points=total, tiles=len(cells), workers=a.workers,
-             points_per_s=res.points_per_s, time_s=res.timings["total"],
-             timings=res.timings, peak_rss_mb_per_worker=res.peak_rss_mb,
-             objects=len(res.objects), status=sorted(set(res.status.values())),
-             bench_peak_rss_gb=peak_rss_gb())  # fmt: skip
+        full = emit(dataset="area", stage="tiled", **tiled_run(tiles, layers, root / "oa_ref",
+                                                               a.workers))  # fmt: skip
+        summary.update(
+            area_points_per_s=full["points_per_s"], area_time_s=full["time_s"],
+            area_objects=full["objects"], area_buildings=full["buildings"],
+            peak_rss_gb_per_worker=max(full["peak_rss_mb_per_worker_tasks"],
+                                       full["peak_rss_mb_per_worker_sampled"]) / 1024,
+            area_load_avg=[full["load_avg_before"], full["load_avg_after"]],
+            single_over_tiled=single["points_per_s"] / full["points_per_s"],
+            single_end_to_end_over_tiled=single["end_to_end_points_per_s"] / full["points_per_s"],
+        )  # fmt: skip
+        if a.kill in ("area", "both"):
+            killed = emit(
+                dataset="area",
+                stage="tiled, one worker killed",
+                **tiled_run(tiles, layers, root / "oa_kill", a.workers, kill_after=len(cells) // 2),
+            )
+            runs["area"] = (root / "oa_ref", root / "oa_kill", killed)
+    for name, (ref_dir, kill_dir, killed) in runs.items():
+        d_ref, d_kill = digest(ref_dir), digest(kill_dir)
+        same = [k for k in d_ref if d_kill.get(k) == d_ref[k]]
+        summary[f"{name}_killed_worker"] = killed.get("killed")
+        summary[f"{name}_resumed"] = bool(killed.get("failed_after_kill"))
+        summary[f"{name}_identical_outputs"] = len(same) == len(d_ref) == len(d_kill)
+        summary[f"{name}_outputs_compared"] = len(d_ref)
+    summary["bench_peak_rss_gb"] = peak_rss_gb()
+    emit(**summary)
 
 
 def single_run(path: str, root: str) -> dict:
-    """Step 1 on one merged cloud (run in a child process by :func:`area`)."""
+    """Step 1 on one merged cloud (run in a child process by :func:`area`): the step alone
+    (``points_per_s``) and, as ``heracles complex`` does it, with reading the LAZ and
+    writing ``segmented.laz`` + tables (``end_to_end_points_per_s``)."""
+    from pyheracles.io.results import write_segmentation
+
+    t0 = time.perf_counter()
     cloud = read_cloud(path)
     cloud = replace(cloud, crs=RD) if cloud.crs is None else cloud
     layers = {c: read_layer(Path(root) / "layers.gpkg", c) for c in ("building", "wall")}
     t = time.perf_counter()
     res = segment_complex(cloud, prepare_layers(layers, cloud), ComplexParams())
     s = time.perf_counter() - t
+    write_segmentation(cloud, res.segmentation, Path(root) / "single_out", step="complex",
+                       parameters=res.params, inputs=[path])  # fmt: skip
+    e2e = time.perf_counter() - t0
     return {"points": len(cloud), "time_s": s, "points_per_s": len(cloud) / s,
+            "end_to_end_time_s": e2e, "end_to_end_points_per_s": len(cloud) / e2e,
             "objects": len(res.segmentation.objects), "peak_rss_gb": peak_rss_gb()}  # fmt: skip
 
 
@@ -317,7 +484,12 @@ if __name__ == "__main__":
     ap.add_argument("--sweep", type=int, default=4, help="distinct generated complexes")
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--root", default=None, help="folder for the generated area (reused)")
-    ap.add_argument("--skip-single", action="store_true")
+    ap.add_argument(
+        "--kill",
+        choices=["block", "area", "both", "none"],
+        default="block",
+        help="the tiled run(s) repeated with one worker SIGKILLed mid-way",
+    )
     ap.add_argument("--block-only", action="store_true")
     ap.add_argument("--single-only", action="store_true")
     a = ap.parse_args()

@@ -18,6 +18,9 @@ from pyheracles.complex import ComplexParams, prepare_layers, segment_complex
 from pyheracles.errors import InputError
 from pyheracles.io import read_cloud, read_layer
 from pyheracles.tiles import assign_owners, read_catalog, run_tiles, split_las
+from pyheracles.tiles.catalog import read_points
+from pyheracles.tiles.runner import boxes_meeting
+from pyheracles.tiles.worker import BUFFER_DIMS, StripJob, buffer_points, strip_tile
 
 RD = "EPSG:28992"
 X0, Y0 = 85_000.0, 447_000.0
@@ -91,6 +94,67 @@ def test_owner_rule_one_tile_per_point() -> None:
     b = np.array([[0, 0, 10, 10], [10, 0, 20, 10], [0, 10, 10, 20]], dtype=float)
     pts = np.array([[5, 5], [10, 5], [15, 5], [5, 10], [25, 5], [5, 30]], dtype=float)
     assert assign_owners(pts, b).tolist() == [0, 0, 1, 0, 1, 2]
+
+
+def test_owner_rule_matches_the_all_pairs_rule_on_edges_overlaps_and_outside() -> None:
+    """The tree-based owners equal the rule written over every (feature, tile) pair."""
+    rng = np.random.default_rng(4)
+    g = np.mgrid[0:5, 0:4].reshape(2, -1).T * 100.0
+    b = np.column_stack([g, g + 100.0])
+    b[3] += [10, 10, 30, 30]  # a box overlapping its neighbours
+    b = b[rng.permutation(len(b))]
+    pts = np.concatenate(
+        [
+            rng.uniform(-80, 600, (3000, 2)),  # inside, outside
+            np.round(rng.uniform(-1, 6, (500, 2))) * 100,  # corners
+            rng.integers(-1, 6, (500, 2)) * 100 + [[50, 0]],
+        ]
+    )  # edges
+    p, q = pts.reshape(-1, 1, 2), b.reshape(1, -1, 4)
+    dx = np.maximum(np.maximum(q[..., 0] - p[..., 0], p[..., 0] - q[..., 2]), 0.0)
+    dy = np.maximum(np.maximum(q[..., 1] - p[..., 1], p[..., 1] - q[..., 3]), 0.0)
+    out = np.hypot(dx, dy)
+    centre = np.hypot(
+        p[..., 0] - (q[..., 0] + q[..., 2]) / 2, p[..., 1] - (q[..., 1] + q[..., 3]) / 2
+    )
+    expected = np.argmin(np.where(out == out.min(axis=1, keepdims=True), centre, np.inf), axis=1)
+    assert (assign_owners(pts, b) == expected).all()
+    assert assign_owners(np.zeros((0, 2)), b).shape == (0,)
+
+
+def test_boxes_meeting_is_the_catalogue_neighbour_rule(scene: dict) -> None:
+    catalog = read_catalog(scene["tiles"][0].parent)
+    bounds = np.array([t.bounds for t in catalog.tiles])
+    for k, tile in enumerate(catalog.tiles):
+        for grow in (0.0, 5.0, 500.0):
+            got = [catalog.tiles[j] for j in boxes_meeting(bounds, tile.box(grow)) if j != k]
+            assert got == catalog.neighbours(tile, grow)
+
+
+def test_buffer_from_a_strip_is_the_direct_read_else_falls_back(
+    scene: dict, tmp_path: Path
+) -> None:
+    """Phase 0's strip gives a neighbour's buffer exactly (points, order, file indices,
+    dimensions); a box it was not cut for is read from the file."""
+    tile, other = read_catalog(scene["tiles"][0].parent).tiles[:2]
+    boxes = (tile.box(7.5), tile.box(3.0))
+    assert not strip_tile(StripJob(other, boxes, tmp_path))["skipped"]
+    for box in (*boxes, tile.box(11.0)):  # the last: not cut for it
+        got = buffer_points(other, box, tmp_path)
+        want = read_points(other.path, box, BUFFER_DIMS)
+        assert len(want[0]) > 0
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        assert got[2].keys() == want[2].keys()
+        for k in want[2]:
+            np.testing.assert_array_equal(got[2][k], want[2][k])
+    assert strip_tile(StripJob(other, boxes, tmp_path))["skipped"]  # resumed
+
+
+def test_layer_with_repeated_source_fid_refused(scene: dict, tmp_path: Path) -> None:
+    layer = scene["layer"].assign(source_fid=0)
+    with pytest.raises(InputError, match="source_fid"):
+        run_tiles(scene["tiles"][0].parent, {"building": layer}, tmp_path / "o")
 
 
 def test_split_keeps_every_point_and_dimension(scene: dict) -> None:

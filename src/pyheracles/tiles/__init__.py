@@ -34,8 +34,12 @@ Ownership rule
     every tile; other tiles' runs use the feature only so that it competes for points
     as in a single run.
 
-Two phases
-    1. per tile (a Dask task): read the tile and its buffer, ground and step 1, and
+Phases
+    0. per tile (a Dask task): read the tile once and keep, uncompressed, the points inside
+       its neighbours' read boxes (``.work/strips/<tile>.npz``), so that a buffer costs a
+       load instead of decompressing a neighbour's whole file (nine files per tile on a
+       grid); removed once every tile has passed phase 1;
+    1. per tile: read the tile and its buffer, ground and step 1, and
        save the owned objects with their members as (tile, index in that tile's file)
        plus the ground mask of the tile's own points in ``.work/<tile>.pkl``;
     2. per tile: the tile's own points (read again with every dimension), labelled by
@@ -64,7 +68,8 @@ Ground over tiles
     one seamless terrain model.
 
 Resume
-    A tile whose phase-1 file or ``tiles/<tile>/`` folder exists is not computed again;
+    A tile whose strip, phase-1 file or ``tiles/<tile>/`` folder exists is not computed
+    again;
     outputs are deterministic, so a resumed run gives the same files.
 
 Modules: :mod:`~pyheracles.tiles.catalog` (input), :mod:`~pyheracles.tiles.plan`

@@ -32,10 +32,12 @@ __all__ = [
     "CHUNK_POINTS",
     "Tile",
     "TileCatalog",
+    "in_box",
     "is_tile_source",
     "peak_rss_mb",
     "read_catalog",
     "read_points",
+    "read_points_in",
     "split_las",
     "tile_name",
 ]
@@ -291,10 +293,18 @@ def read_catalog(source: str | os.PathLike[str], *, crs: Any = None) -> TileCata
 def read_points(
     path: Path, box: tuple[float, float, float, float] | None, dims: Sequence[str]
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[Any]]]:
-    """World xyz, file indices and ``dims`` of the points of ``path`` inside ``box``.
+    """World xyz, file indices and ``dims`` of the points of ``path`` inside ``box``
+    (edges included; ``None``: every point).
 
     Read by chunks of a million points: memory holds the kept points, not the file.
     """
+    return read_points_in(path, None if box is None else [box], dims)
+
+
+def read_points_in(
+    path: Path, boxes: Sequence[Sequence[float]] | None, dims: Sequence[str]
+) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[Any]]]:
+    """:func:`read_points` for the points inside ANY of ``boxes`` (in file order)."""
     import laspy
 
     xyz_parts, idx_parts = [], []
@@ -304,10 +314,12 @@ def read_points(
         have = set(reader.header.point_format.dimension_names)
         for chunk in reader.chunk_iterator(CHUNK_POINTS):
             x, y, z = np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)
-            if box is None:
+            if boxes is None:
                 keep = np.ones(len(x), dtype=bool)
             else:
-                keep = (x >= box[0]) & (x <= box[2]) & (y >= box[1]) & (y <= box[3])
+                keep = np.zeros(len(x), dtype=bool)
+                for box in boxes:
+                    keep |= in_box(x, y, box)
             idx = np.flatnonzero(keep)
             xyz_parts.append(np.column_stack([x[idx], y[idx], z[idx]]))
             idx_parts.append(idx + start)
@@ -319,6 +331,14 @@ def read_points(
     index = np.concatenate(idx_parts) if idx_parts else np.zeros(0, dtype=np.int64)
     attrs = {d: np.concatenate(v) for d, v in attr_parts.items() if v}
     return xyz, index.astype(np.int64), attrs
+
+
+def in_box(
+    x: NDArray[np.float64], y: NDArray[np.float64], box: Sequence[float]
+) -> NDArray[np.bool_]:
+    """Points inside ``box`` (``xmin, ymin, xmax, ymax``, edges included): the one test
+    every read of a buffer uses, so a point is kept or not alike wherever it is read."""
+    return (x >= box[0]) & (x <= box[2]) & (y >= box[1]) & (y <= box[3])
 
 
 def peak_rss_mb() -> float:

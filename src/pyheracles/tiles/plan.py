@@ -68,16 +68,32 @@ def assign_owners(points_xy: NDArray[np.float64], bounds: NDArray[np.float64]) -
     >>> assign_owners(np.array([[2.0, 5.0], [10.0, 5.0], [10.5, 5.0], [30.0, 5.0]]), b).tolist()
     [0, 0, 1, 1]
     """
-    p = np.asarray(points_xy, dtype=float).reshape(-1, 1, 2)
-    b = np.asarray(bounds, dtype=float).reshape(1, -1, 4)
-    dx = np.maximum(np.maximum(b[..., 0] - p[..., 0], p[..., 0] - b[..., 2]), 0.0)
-    dy = np.maximum(np.maximum(b[..., 1] - p[..., 1], p[..., 1] - b[..., 3]), 0.0)
-    outside = np.hypot(dx, dy)
-    cx, cy = (b[..., 0] + b[..., 2]) / 2, (b[..., 1] + b[..., 3]) / 2
-    centre = np.hypot(p[..., 0] - cx, p[..., 1] - cy)
-    # nearest box first, then the nearest centre among the boxes at that distance
-    rank = np.where(outside == outside.min(axis=1, keepdims=True), centre, np.inf)
-    return np.argmin(rank, axis=1).astype(np.int64)
+    import shapely
+
+    p = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+    b = np.asarray(bounds, dtype=float).reshape(-1, 4)
+    owner = np.zeros(len(p), dtype=np.int64)
+    if not len(p) or not len(b):
+        return owner
+    # candidate (feature, tile) pairs from a tree of the boxes, never a features x tiles
+    # array (a city has 1e5 features and 1e4 tiles): the boxes holding the point (edges
+    # included), else the boxes at the smallest distance
+    tree = shapely.STRtree(shapely.box(b[:, 0], b[:, 1], b[:, 2], b[:, 3]))
+    points = shapely.points(p)
+    fi, ti = tree.query(points, predicate="intersects")
+    rest = np.setdiff1d(np.flatnonzero(np.isfinite(p).all(axis=1)), fi)
+    if len(rest):
+        qi, qt = tree.query_nearest(points[rest], all_matches=True)
+        fi, ti = np.concatenate([fi, rest[qi]]), np.concatenate([ti, qt])
+    if not len(fi):
+        return owner
+    # the nearest centre among the candidates, then the first tile
+    centre = np.hypot(p[fi, 0] - (b[ti, 0] + b[ti, 2]) / 2, p[fi, 1] - (b[ti, 1] + b[ti, 3]) / 2)
+    order = np.lexsort((ti, centre, fi))
+    fi, ti = fi[order], ti[order]
+    first = np.r_[True, fi[1:] != fi[:-1]]
+    owner[fi[first]] = ti[first]
+    return owner
 
 
 def auto_buffer(layers: Mapping[str, Any]) -> tuple[float, float]:

@@ -9,6 +9,7 @@ retried (``retries``) and does not stop the others; finished tiles are never rew
 from __future__ import annotations
 
 import os
+import shutil
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -37,15 +38,18 @@ from pyheracles.tiles.plan import (
 )
 from pyheracles.tiles.worker import (
     SegmentJob,
+    StripJob,
     WriteJob,
     load_record,
     save_record,
     segment_tile,
+    strip_tile,
     write_tile,
 )
 
 __all__ = [
     "TiledResult",
+    "boxes_meeting",
     "cached_city_parameters",
     "check_layers",
     "dask_client",
@@ -70,7 +74,8 @@ class TiledResult:
     paths
         ``objects``, ``tiles`` (the index), ``run``.
     timings, peak_rss_mb
-        Seconds per phase; the largest peak resident memory of a task's process, MB.
+        Seconds per stage (``parameters``, ``cluster``, ``strips``, ``segment``, ``write``,
+        ``merge``, ``total``); the largest peak resident memory of a task's process, MB.
     """
 
     catalog: TileCatalog
@@ -193,7 +198,9 @@ def run_tiles(
     work = out / ".work"
     work.mkdir(parents=True, exist_ok=True)
     (out / "tiles").mkdir(exist_ok=True)
+    t = time.perf_counter()
     city = cached_city_parameters(p, catalog, max_size, work)
+    timings: dict[str, float] = {"parameters": time.perf_counter() - t}
     p = city.complex
     tiles = catalog.tiles
     numbers = {t.name: k for k, t in enumerate(tiles)}
@@ -208,14 +215,21 @@ def run_tiles(
     feature_bounds = {n: shapely.bounds(g.geometry.to_numpy()) for n, g in checked.items()}
     ids = feature_ids(checked)
     jobs = []
-    boxes = {}
+    # the features of each tile, grouped once (not a tiles x features scan)
+    by_owner = {n: np.split(np.argsort(o, kind="stable"),
+                            np.searchsorted(np.sort(o), np.arange(1, len(tiles))))
+                for n, o in owners.items()}  # fmt: skip
+    # reach[t]: the tiles whose read box meets tile t (their objects may have points in it)
+    reach: list[list[int]] = [[] for _ in tiles]
     for k, tile in enumerate(tiles):
-        mine = [feature_bounds[n][owners[n] == k] for n in checked]
+        mine = [feature_bounds[n][by_owner[n][k]] for n in checked]
         box = read_box(tile, buffer, np.concatenate(mine) if mine else np.zeros((0, 4)), margin)
-        boxes[tile.name] = box
+        met = boxes_meeting(bounds, box)
+        for j in met:
+            reach[j].append(k)
         near = layers_near(checked, box)
         jobs.append(SegmentJob(
-            tile=tile, neighbours=tuple(catalog.neighbours(tile, box=box)), tile_index=numbers,
+            tile=tile, neighbours=tuple(tiles[j] for j in met if j != k), tile_index=numbers,
             layers={n: v[0] for n, v in near.items()},
             owned={n: owners[n][v[1]] == k for n, v in near.items()},
             params=p, box=box, max_object_size_m=max_size, crs=crs, work=work,
@@ -226,14 +240,24 @@ def run_tiles(
     client = cluster = None
     dashboard = None
     peak = 0.0
-    timings: dict[str, float] = {}
     try:
+        t = time.perf_counter()
         if scheduler is not None or workers:
             client, cluster = dask_client(workers, scheduler)
             dashboard = getattr(client, "dashboard_link", None)
+        timings["cluster"] = time.perf_counter() - t
+        t = time.perf_counter()
+        # phase 0: each tile read once for the strips its neighbours' buffers take from it
+        # (a failed strip is no failure: phase 1 then reads that neighbour's file)
+        strips = [StripJob(tile, tuple(jobs[k].box for k in reach[j] if k != j), work)
+                  for j, tile in enumerate(tiles)]  # fmt: skip
+        run_phase(client, strip_tile, strips, "strips", retries, progress, dashboard)
+        timings["strips"] = time.perf_counter() - t
         t = time.perf_counter()
         first = run_phase(client, segment_tile, jobs, "segment", retries, progress, dashboard)
         timings["segment"] = time.perf_counter() - t
+        if all(ok for ok, _ in first.values()):  # no tile needs them again
+            shutil.rmtree(work / "strips", ignore_errors=True)
         for name, (ok, info) in first.items():
             if not ok:
                 status[name] = f"failed: {info}"
@@ -246,8 +270,7 @@ def run_tiles(
             if tile.name in status:
                 continue
             # the tiles whose read box meets this tile may own objects with points in it
-            near_tiles = [o for o in tiles if o.name == tile.name
-                          or tile in catalog.neighbours(o, box=boxes[o.name])]  # fmt: skip
+            near_tiles = [tiles[j] for j in reach[numbers[tile.name]]]
             missing = [o.name for o in near_tiles if o.name not in records]
             if missing:  # written without them it would lack their objects: not now
                 status[tile.name] = f"failed: needs tile {', '.join(missing)}, which failed"
@@ -262,6 +285,7 @@ def run_tiles(
             client.close()
         if cluster is not None:
             cluster.close()
+    t = time.perf_counter()
     totals: dict[int, int] = {}
     for name, (ok, info) in second.items():
         if not ok:
@@ -282,6 +306,7 @@ def run_tiles(
         paths["objects"] = write_gpkg(objects, out / "objects.gpkg", "objects")
     index = tile_index(catalog, status, "segmented.laz", crs)
     paths["tiles"] = write_gpkg(index, out / "tiles.gpkg", "tiles")
+    timings["merge"] = time.perf_counter() - t
     total_time = time.perf_counter() - t_start
     timings["total"] = total_time
     n_done = sum(t.n_points for t in tiles if not status[t.name].startswith("failed"))
@@ -301,6 +326,14 @@ def run_tiles(
     return TiledResult(catalog, status, objects, paths, timings, peak, rate, dashboard)
 
 
+def boxes_meeting(bounds: np.ndarray, box: Sequence[float]) -> np.ndarray:
+    """Indices (ascending) of the ``(T, 4)`` tile ``bounds`` meeting ``box`` (edges included),
+    as :meth:`TileCatalog.neighbours` decides, without a Python loop over the tiles."""
+    x0, y0, x1, y1 = box
+    return np.flatnonzero((bounds[:, 0] <= x1) & (bounds[:, 2] >= x0)
+                          & (bounds[:, 1] <= y1) & (bounds[:, 3] >= y0))  # fmt: skip
+
+
 def check_layers(
     layers: Mapping[str, Any], crs: Any, *, reproject: bool, fix_invalid: bool, source: str
 ) -> dict[str, Any]:
@@ -314,6 +347,16 @@ def check_layers(
         g = align_crs(g, crs, reproject=reproject, cloud_source=source)
         if "source_fid" not in g.columns:
             g = g.assign(source_fid=np.arange(len(g), dtype=np.int64))
+        elif g["source_fid"].duplicated().any():
+            # the tiles find an object's feature by it: a repeated one would take another's id
+            dup = g["source_fid"][g["source_fid"].duplicated()].iloc[0]
+            raise InputError(
+                f"layer {name!r}: {int(g['source_fid'].duplicated().sum())} features repeat "
+                f"another's source_fid (e.g. {dup!r})",
+                path=src,
+                hint="give each feature its own source_fid, or drop the column "
+                "(read_layer numbers the features)",
+            )
         g = g.reset_index(drop=True)
         g.attrs.update(gdf.attrs)
         checked[name] = g

@@ -1,5 +1,8 @@
-"""The two tasks of a tiled run, one per tile, run by Dask workers (or here, one by one).
+"""The three tasks of a tiled run, one per tile, run by Dask workers (or here, one by one).
 
+0. :func:`strip_tile`: read the tile once and keep, uncompressed, the points inside its
+   neighbours' read boxes in ``.work/strips/<tile>.npz`` (each neighbour's buffer then
+   costs a load, not the decompression of a whole file);
 1. :func:`segment_tile`: read the tile and its buffer, ground and step 1, and save the
    owned objects with their members as (tile, index in that tile's file) plus the ground
    mask of the tile's own points in ``.work/<tile>.pkl``;
@@ -13,7 +16,8 @@ Conflicts between runs (rare, at the edges of buffers): a point claimed by objec
 owners goes to the first owner in catalogue order; a point one tile's ground filter calls
 ground but the owning run put in an object stays in the object.
 
-Both tasks skip a tile whose output exists (``.work/<tile>.pkl``, ``tiles/<tile>/run.json``):
+Every task skips a tile whose output exists (``.work/strips/<tile>.npz``,
+``.work/<tile>.pkl``, ``tiles/<tile>/run.json``):
 a rerun resumes, and since every task is deterministic the files are the same.
 """
 
@@ -32,9 +36,76 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.tiles.catalog import Tile, peak_rss_mb, read_points
+from pyheracles.tiles.catalog import Tile, in_box, peak_rss_mb, read_points, read_points_in
 
-__all__ = ["SegmentJob", "WriteJob", "load_record", "save_record", "segment_tile", "write_tile"]
+__all__ = [
+    "BUFFER_DIMS",
+    "SegmentJob",
+    "StripJob",
+    "WriteJob",
+    "load_record",
+    "save_record",
+    "segment_tile",
+    "strip_path",
+    "strip_tile",
+    "write_tile",
+]
+
+#: The dimensions phase 1 reads besides x, y, z (the ground filter's and step 1's).
+BUFFER_DIMS = ("number_of_returns", "classification")
+
+
+# ----------------------------------------------------------------------------- phase 0
+@dataclass(frozen=True)
+class StripJob:
+    """What one phase-0 task needs: its tile and the read boxes of the tiles it buffers."""
+
+    tile: Tile
+    boxes: tuple[tuple[float, float, float, float], ...]  # the neighbours' read boxes
+    work: Path
+
+
+def strip_path(work: Path, name: str) -> Path:
+    """The phase-0 file of tile ``name``: its points inside its neighbours' read boxes."""
+    return work / "strips" / f"{name}.npz"
+
+
+def strip_tile(job: StripJob) -> dict[str, Any]:
+    """Read a tile once and keep the points its neighbours need for their buffers.
+
+    Without it each tile's task would decompress every neighbour's whole file for a
+    strip along its edge: nine files per tile on a grid.  The strip holds the points
+    inside any neighbour's read box (file order, :data:`BUFFER_DIMS`), uncompressed;
+    phase 1 selects its own box from it with the same test (:func:`in_box`), so the
+    points are those a direct read of the neighbour's file would give.
+    """
+    target = strip_path(job.work, job.tile.name)
+    if target.is_file() or not job.boxes:
+        return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
+    from pyheracles.io.atomic import atomic_path
+
+    xyz, index, attrs = read_points_in(job.tile.path, job.boxes, BUFFER_DIMS)
+    with atomic_path(target) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, xyz=xyz, index=index, boxes=np.asarray(job.boxes, dtype=float),
+                 **{f"dim_{k}": v for k, v in attrs.items()})  # fmt: skip
+    return {"tile": job.tile.name, "skipped": False, "n_strip": len(xyz),
+            "peak_rss_mb": peak_rss_mb()}  # fmt: skip
+
+
+def buffer_points(
+    tile: Tile, box: tuple[float, float, float, float], work: Path
+) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[Any]]]:
+    """A neighbour's points inside ``box``: from its strip (phase 0) if the strip was cut
+    for this box, else from its file."""
+    path = strip_path(work, tile.name)
+    if path.is_file():
+        with np.load(path) as data:
+            if (data["boxes"] == np.asarray(box, dtype=float)).all(axis=1).any():
+                xyz = data["xyz"]
+                keep = np.flatnonzero(in_box(xyz[:, 0], xyz[:, 1], box))
+                attrs = {k[4:]: data[k][keep] for k in data.files if k.startswith("dim_")}
+                return xyz[keep], data["index"][keep], attrs
+    return read_points(tile.path, box, BUFFER_DIMS)
 
 
 # ----------------------------------------------------------------------------- phase 1
@@ -68,13 +139,13 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
     target = job.work / f"{job.tile.name}.pkl"
     if target.is_file():
         return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
-    dims = ("number_of_returns", "classification")
+    dims = BUFFER_DIMS
     parts = [(job.tile_index[job.tile.name], *read_points(job.tile.path, None, dims))]
     warnings: list[str] = []
     box = job.box
     for other in job.neighbours:
         try:
-            parts.append((job.tile_index[other.name], *read_points(other.path, box, dims)))
+            parts.append((job.tile_index[other.name], *buffer_points(other, box, job.work)))
         except Exception as exc:  # an unreadable neighbour: its points are missing
             warnings.append(f"buffer: cannot read {other.path.name} ({exc})")
     n_own = len(parts[0][1])
