@@ -513,12 +513,13 @@ def _segment_building(
             SliceProfile(*[np.zeros(0)] * 3, np.zeros(0, dtype=np.int64)),
         )
     )
-    # The section is searched in the body (its z order from the one of the whole cloud);
-    # the supports are cut out of the whole cloud, so that each keeps its full height up
-    # to what it carries, whatever the attic split said (eaves lower than the tops of the
-    # supports, a roofless ruin whose broken tops looked like an attic).
-    in_body = ~split.attic[order] if split.has_attic else slice(None)
-    found = detect_supports_checked(cloud.xyz, supports, None, order[in_body], z_sorted[in_body])
+    # The section is searched in the whole cloud, and the supports are cut out of it, so
+    # that each keeps its full height up to what it carries, whatever the attic split
+    # said: eaves lower than the tops of the supports, a roofless ruin whose columns rise
+    # above its broken walls (the hull shrinks there, as at an attic: searched in the
+    # body below it, the section fell among the plinths).  A roof space holds few
+    # persistent support islands and the height search does not choose it.
+    found = detect_supports_checked(cloud.xyz, supports, None, order, z_sorted)
     full = found.instance
     attic_mask = split.attic & (full == 0)
     if split.has_attic and (n_up := int(np.count_nonzero(split.attic & (full > 0)))):

@@ -11,17 +11,27 @@ This module keeps that structure and fixes the failures the thesis reports:
    island counts at a height only if an island of the same kind is found at the
    same place ``persistence_m`` above and below (a chair seat or a sign board is
    not); the middle of the longest run of heights with the most islands is
-   used.  Capitals merge twin columns and fences join columns into wall-like
+   used.  The body runs between its lowest and highest dense levels
+   (:func:`~pyheracles.supports.height.dense_extent`: not the outliers below the
+   floor or above the roof, not the roof of a survey from above that holds most
+   points) and is searched whole, whatever an attic split said (the columns of a
+   ruin rise above its broken walls where the hull shrinks as at an attic).
+   Capitals merge twin columns and fences join columns into wall-like
    islands, so such heights lose islands and are avoided (the thesis moved the
    section by hand in the St-Pierre choir).
 2. **Islands** -- Euclidean clustering of the section (2D); each island is
    noise (too small), wall (long or elongated) or a support; a support is a
    column when a circle explains its points better than a rectangle and the
    hull circularity ``P^2 / 4 pi A`` is at most 1.12 (thesis threshold; a
-   partially scanned column passes on the model test alone), else a pier.  The
-   points left over are grouped again at their own spacing: column rings from
-   their arcs, sparse piers on a rectangle outline (supports far from the
-   scanners).
+   partially scanned column passes on the model test alone, or when its circle
+   lies within the noise of the ring test), else a pier.  The points left over
+   are grouped again at their own spacing: column rings from their arcs, then at
+   gaps doubling up to 20 cm, largest first, rings, twin rings side by side and
+   sparse piers on a rectangle outline (supports far from the scanners, crossed
+   by scan lines far apart).  A second, 30 cm thick section finds the supports
+   whose few points do not make an island in the thin one.  Pier islands in
+   line with a wall, or with a side on the line of a wall face (the pieces of a
+   wall between its openings), are walls.
 3. **Engaged columns** -- on wall islands, the wall faces are fitted as lines
    (MSAC); the points left over that form an arc of circle attached to a face
    are half-columns (class ``engaged_column``, which the thesis could not find).

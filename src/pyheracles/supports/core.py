@@ -31,7 +31,7 @@ class SupportParams:
     ----------
     section_height_m
         Height of the cross-section above the floor of the body (its lowest dense level,
-        :func:`~pyheracles.geometry.sections.robust_floor`), metres;
+        :func:`~pyheracles.supports.height.dense_extent`), metres;
         ``None`` chooses it automatically (the thesis took the middle).
     section_thickness_m
         Slab thickness, metres; auto ``max(0.05, 3 x point spacing)`` (thesis: 5 cm).

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.errors import InputError
-from pyheracles.geometry.sections import robust_floor, sort_order
+from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
 from pyheracles.supports.cookies import cookies, extract_support
 from pyheracles.supports.core import (
@@ -25,16 +25,19 @@ from pyheracles.supports.core import (
     one_blas_thread,
     scales,
 )
-from pyheracles.supports.height import choose_height
-from pyheracles.supports.piers import wall_fragment
+from pyheracles.supports.height import choose_height, dense_extent
+from pyheracles.supports.piers import in_wall_line, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
-from pyheracles.supports.rings import detached_half_column, engaged_on_wall
+from pyheracles.supports.rings import RING_RADIUS_M, detached_half_column, engaged_on_wall
 from pyheracles.supports.sections import section_islands
 
 # ------------------------------------------------------------------------------ main
 #: The lower section (supports ending below the automatic one) lies this many times
 #: ``min_free_height_m`` above the floor: every support that counts crosses it.
 LOW_SECTION_FACTOR = 0.8
+#: Thickness of the section that finds the supports too sparse for the thin one, metres
+#: (a column leaning 6 degrees moves 3 cm over it; its outline stays one ring).
+THICK_SECTION_M = 0.3
 
 
 def detect_supports(
@@ -125,8 +128,9 @@ def detect_supports_checked(
         z_sorted = p[:, 2][order] if z_sorted is None else np.asarray(z_sorted)
     spacing = spacing_m if spacing_m is not None else estimate_spacing(p, z_sorted, rng)
     sc = scales(spacing, params)
-    # the floor, not the lowest point: outliers below it moved the section search down
-    z0, z1 = robust_floor(z_sorted), float(z_sorted[-1])
+    # the floor and the top, not the lowest and highest points: outliers below and above
+    # moved the section search down or up into the sky
+    z0, z1 = dense_extent(z_sorted)
     if params.section_thickness_m is None and sc.thickness > MAX_SECTION_SHARE * (z1 - z0):
         # a slab that thick from mid-height reaches floor and ceiling: it is no section,
         # and its islands are whatever the walls' points project to (pieces of walls)
@@ -169,6 +173,29 @@ def detect_supports_checked(
         for sh in low_shapes:
             sh["h_sec"] = h_low
         shapes = dedupe(shapes + low_shapes)
+    # 2c. a thick section for the columns too sparse for the thin one (a few hundred
+    # points on a column far from every station): the same islands on a slab
+    # THICK_SECTION_M thick, new free rings clear of every shape found only (the thick
+    # slab holds more of the clutter and of the window frames: its piers are not trusted)
+    if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
+        s3, e3 = np.searchsorted(
+            z_sorted, [h_sec - THICK_SECTION_M / 2, h_sec + THICK_SECTION_M / 2]
+        )
+        thick_idx = order[s3:e3]
+        thick_islands = section_islands(p[thick_idx, :2], params, sc.distance)
+        thick_shapes, _ = support_shapes(p[thick_idx, :2], thick_islands, params, sc, rng)
+        walls = [p[thick_idx[i.index], :2] for i in thick_islands if i.kind == "wall"]
+        wall_tree = cKDTree(np.vstack(walls)) if walls else None
+        shapes += [
+            sh
+            for sh in thick_shapes
+            if sh["class"] == "column"
+            and clear_of(sh, shapes)
+            and (  # a free ring: no wall of the thick slab at it (a corner, a window frame)
+                wall_tree is None
+                or not wall_tree.query_ball_point(sh["centre"], sh["radius"] + 3 * sc.distance)
+            )
+        ]
     if not shapes:
         notes.append(
             f"no support found in the section {at} "
@@ -193,7 +220,9 @@ def detect_supports_checked(
         row = describe(cpts, crho, sh, sc.tol)
         if sh["class"] != "pier" and not (
             abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
-        ):  # the 3D cylinder disagrees with the section circle (or failed): not a column
+            and row["radius_m"] >= RING_RADIUS_M[0]
+        ):  # the 3D cylinder disagrees with the section circle (or failed, or is a pole
+            # or a scaffold tube thinner than any column): not a column
             notes.append(
                 f"a round candidate of radius {sh['radius']:.2f} m ({len(cidx)} points) "
                 "was rejected: its cylinder fit disagrees with its section"
@@ -226,6 +255,40 @@ def detect_supports_checked(
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
 
 
+def clear_of(sh: dict, shapes: list[dict]) -> bool:
+    """Whether a shape's footprint (the circle of its half size) overlaps no other's."""
+    r = float(np.max(sh["half"]))
+    return all(
+        np.hypot(*(sh["centre"] - k["centre"])) > r + float(np.max(k["half"])) for k in shapes
+    )
+
+
+def wall_pieces(xy: Array, islands: list[Island], sc: Scales) -> set[int]:
+    """Indices of the pier islands that are pieces of walls.
+
+    A piece is in line with the wall beside it (:func:`wall_fragment`) or lies on the
+    line of a wall face (:func:`in_wall_line`); a piece found so joins the wall, so a
+    run of pieces between openings is found from the wall at its end.
+    """
+    piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
+    if not piers:
+        return set()
+    tree = cKDTree(xy)
+    pieces = {k for k in piers if wall_fragment(xy, islands[k], tree, sc.distance)}
+    bin_m = max(0.05, 3.0 * sc.spacing)
+    while True:  # a few rounds: each adds the pieces next to the wall found so far
+        wall = [xy[i.index] for k, i in enumerate(islands) if i.kind == "wall" or k in pieces]
+        if not wall:
+            return pieces
+        wall_xy = np.vstack(wall)
+        new = {
+            k for k in piers if k not in pieces and in_wall_line(islands[k], wall_xy, sc.tol, bin_m)
+        }
+        if not new:
+            return pieces
+        pieces |= new
+
+
 def support_shapes(
     xy: Array,
     islands: list[Island],
@@ -236,19 +299,16 @@ def support_shapes(
     """Section shapes of the supports: column / pier islands, half-columns on walls.
 
     Also returns the number of pier islands left out as pieces of walls
-    (:func:`wall_fragment`).
+    (:func:`wall_pieces`).
     """
     shapes: list[dict] = []
     wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
     wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
-    section_tree: cKDTree | None = None
-    fragments = 0
-    for isl in islands:
-        if isl.kind == "pier":
-            section_tree = section_tree if section_tree is not None else cKDTree(xy)
-            if wall_fragment(xy, isl, section_tree, sc.distance):
-                fragments += 1
-                continue
+    pieces = wall_pieces(xy, islands, sc)
+    fragments = len(pieces)
+    for k, isl in enumerate(islands):
+        if k in pieces:
+            continue
         if isl.kind == "column" and wall_tree is not None:
             eng = detached_half_column(xy[isl.index], isl, wall_tree, sc.distance)
             if eng is not None:

@@ -19,6 +19,66 @@ LINKS = tuple((di, dj) for di in range(3) for dj in range(-2, 3) if (di, dj) > (
 
 DENSE_CELLS = 8_000_000  # larger grids use a sort per slab instead of a dense scatter
 
+#: A height level of the building holds at least this share of the points of its mean
+#: level (outliers above the roof, birds, dust spread a few points over many levels).
+TOP_LEVEL_SHARE = 0.05
+#: The building ends at the first run of sparse levels this tall (metres).
+TOP_GAP_M = 0.5
+
+
+def dense_extent(z_sorted: Array, bin_m: float = 0.05) -> tuple[float, float]:
+    """Lowest and highest dense levels of a cloud: the building, not its outliers.
+
+    Levels of ``bin_m`` are counted from the median height up (down); the building ends
+    at the top (bottom) of the last level holding at least ``TOP_LEVEL_SHARE`` of the
+    points of the mean level (between the median and the 99 % (1 %) quantile) before a
+    run of ``TOP_GAP_M`` of sparser levels.  Gross errors, multipath echoes under the
+    floor, birds and mixed pixels above a roof spread a few points over many levels;
+    the broken top of a column holds its ring, a floor seen only through the
+    colonnade (a survey from above, whose fullest level is the roof) holds the feet of
+    the supports.  A clean cloud gives its lowest and highest points.
+
+    Parameters
+    ----------
+    z_sorted
+        Heights sorted ascending, metres.
+    bin_m
+        Height of the levels, metres.
+
+    Returns
+    -------
+    (float, float)
+        Bottom and top, metres (NaN for an empty cloud).
+    """
+    z = np.asarray(z_sorted, dtype=np.float64)
+    if len(z) == 0:
+        return float("nan"), float("nan")
+    return -_dense_end(-z[::-1], bin_m), _dense_end(z, bin_m)
+
+
+def _dense_end(z: Array, bin_m: float) -> float:
+    """Top of the last dense level above the median of ascending heights ``z``."""
+    zm, z1 = float(z[len(z) // 2]), float(z[-1])
+    nbins = int((z1 - zm) / bin_m) + 1
+    if nbins < 2 or nbins > 1_000_000:  # flat, or not metres: the highest point
+        return z1
+    edges = zm + bin_m * np.arange(nbins + 1)
+    counts = np.diff(np.searchsorted(z, edges, side="left"))
+    counts[-1] += len(z) - int(counts.sum())  # the top point falls on the last edge
+    # the mean level between the median and the 99 % quantile: outliers stay above it
+    z99 = float(z[int(0.99 * (len(z) - 1))])
+    mean_level = 0.49 * len(z) * bin_m / max(z99 - zm, bin_m)
+    k_dense = np.flatnonzero(counts >= TOP_LEVEL_SHARE * mean_level)
+    if len(k_dense) == 0:
+        return z1
+    # the first dense level followed by a gap of `gap` sparse levels ends the building
+    gap = max(1, round(TOP_GAP_M / bin_m))
+    nxt = np.r_[k_dense[1:], nbins + gap]
+    k = int(k_dense[np.argmax(nxt - k_dense > gap)])
+    if k == nbins - 1:
+        return z1
+    return float(min(z1, z[np.searchsorted(z, edges[k + 1], side="left") - 1]))
+
 
 class SlabGrid:
     """Occupied square cells of horizontal slabs, for the section height search.

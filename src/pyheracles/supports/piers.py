@@ -70,3 +70,39 @@ def wall_fragment(xy: Array, isl: Island, tree: cKDTree, band_m: float) -> bool:
     beyond_u = (u > half[0]) & (u <= half[0] + CLEARANCE_M) & (v <= half[1] + band_m)
     beyond_v = (v > half[1]) & (v <= half[1] + CLEARANCE_M) & (u <= half[0] + band_m)
     return max(int(beyond_u.sum()), int(beyond_v.sum())) >= need
+
+
+#: An opening or a breach in a wall is at most this wide: a wall face this far beyond a
+#: pier candidate's side, on the line of that side, is the same wall (metres).
+WALL_LINE_GAP_M = 3.0
+#: A wall face on the line of a side covers at least this length (metres); a wall
+#: crossing the line covers its own thickness there, two scanned faces of a few cm.
+WALL_LINE_COVER_M = 0.5
+
+
+def in_wall_line(isl: Island, wall_xy: Array, tol: float, bin_m: float) -> bool:
+    """A pier candidate is a piece of a wall when one of its sides lies on a wall face.
+
+    The piece of a wall between two openings (doors, windows, the breaches of a ruin)
+    is cut off in the section like a pier, but its sides facing the room and the
+    outside lie on the faces of the wall that goes on beyond the openings: wall points
+    (``wall_xy``, the wall islands of the section) within ``tol`` of the line of one of
+    its sides, beyond its ends and at most :data:`WALL_LINE_GAP_M` from them, that
+    cover at least :data:`WALL_LINE_COVER_M` of that line in bins of ``bin_m``.  A free
+    pier in front of a wall, or in a row of piers, has no wall on the lines of its
+    sides (a fence between piers runs on their axis, not on a face).
+    """
+    if len(wall_xy) == 0:
+        return False
+    half = np.maximum(isl.size / 2, 1e-6)
+    c, s = np.cos(isl.angle), np.sin(isl.angle)
+    q = wall_xy - isl.center
+    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    need = max(2, int(np.ceil(WALL_LINE_COVER_M / bin_m)))
+    for across, along, h_across, h_along in ((v, u, half[1], half[0]), (u, v, half[0], half[1])):
+        beyond = (np.abs(along) > h_along + tol) & (np.abs(along) <= h_along + WALL_LINE_GAP_M)
+        for side in (-h_across, h_across):
+            on = beyond & (np.abs(across - side) <= tol)
+            if np.count_nonzero(on) >= need and len(np.unique(np.floor(along[on] / bin_m))) >= need:
+                return True
+    return False

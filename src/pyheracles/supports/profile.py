@@ -266,7 +266,8 @@ def wall_beside(
     noise are not a wall): a wall fills a cell over most of the height layers of
     ``z_range`` (``WALL_CELL_SHARE``; the caller gives the upper half of the column), a
     floor, a chair or a fence does not.  The wall cells must lie on one line (RMS within
-    a cell) of at least four cells, and the column's circle must reach that line (its
+    a cell) with a run of at least four cells at most two cells apart (the tubes of a
+    scaffold tower are single cells), and the column's circle must reach that line (its
     axis within ``radius + 2 x tol`` of it): the column is engaged in the wall even where
     the junction is in the shadow.
 
@@ -299,6 +300,15 @@ def wall_beside(
     n = vec[:, 0]
     d = float(n @ m)
     if np.sqrt(np.mean((pts @ n - d) ** 2)) > c or abs(d) > radius + 2.0 * sc.tol:
+        return None
+    # a face is continuous: a run of at least four wall cell positions along it, at most
+    # two cells apart
+    # (the vertical tubes of a scaffold tower round a column are single cells a metre
+    # apart, on a line too)
+    along = np.unique(np.round(pts @ np.array([-n[1], n[0]]) / c))  # cell positions
+    breaks = np.flatnonzero(np.diff(along) > 2.0 + 1e-9)
+    runs = np.diff(np.r_[0, breaks + 1, len(along)])
+    if runs.max() < 4:
         return None
     if d > 0:  # the normal points from the face to the axis (the centre is the origin)
         n, d = -n, -d

@@ -7,8 +7,8 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.geometry.fitting import MSACParams, fit_circle
-from pyheracles.segment.euclidean import euclidean_clusters
-from pyheracles.supports.core import Array, Island, SupportParams, check_pair_memory, trimmed_rms
+from pyheracles.segment.euclidean import euclidean_clusters, relabel_by_size
+from pyheracles.supports.core import Array, Island, SupportParams, trimmed_rms
 
 #: Arcs of one ring are grouped across gaps up to this wide (metres): the scan lines of a
 #: distant terrestrial scan cross a column this far apart (4 cm at 10 m and 0.23 deg,
@@ -19,6 +19,34 @@ ARC_GAP_M = 0.2
 #: Radii of the rings recognised from arcs (metres): from the smallest support island
 #: (``min_support_size_m`` 0.1 m across) to the largest column of the family.
 RING_RADIUS_M = (0.05, 1.5)
+
+
+#: Left-over points are thinned to one per cell of this share of the regrouping gap
+#: before they are clustered at that gap (a dense leftover, a wall's noise islands in a
+#: 30 cm slab, puts thousands of points within 20 cm of each other).
+THIN_CELL_SHARE = 0.25
+
+
+def gap_clusters(q: Array, gap: float, min_points: int) -> NDArray[np.int32]:
+    """Single-linkage clusters of the points ``q`` at ``gap`` on a thinned copy.
+
+    The points are reduced to the centroids of their occupied cells of
+    ``THIN_CELL_SHARE x gap``; the centroids are linked within ``gap``, and every point
+    takes its cell's cluster.  Labels 1..K by decreasing number of points, 0 for
+    clusters of fewer than ``min_points`` points (as
+    :func:`~pyheracles.segment.euclidean.euclidean_clusters`).
+    """
+    if len(q) == 0:
+        return np.zeros(0, dtype=np.int32)
+    cell = THIN_CELL_SHARE * gap
+    ij = np.floor((q - q.min(axis=0)) / cell).astype(np.int64)
+    key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+    cells, inv = np.unique(key, return_inverse=True)
+    inv = inv.ravel()
+    n = np.bincount(inv, minlength=len(cells)).astype(np.float64)
+    rep = np.c_[np.bincount(inv, q[:, 0]) / n, np.bincount(inv, q[:, 1]) / n]
+    comp = euclidean_clusters(rep, gap, 1)
+    return relabel_by_size(comp[inv], min_points)
 
 
 def rings_from_arcs(
@@ -46,35 +74,15 @@ def rings_from_arcs(
     if len(left) < params.min_points or gap <= distance_m:
         return islands
     q = xy[left]
-    tree = cKDTree(q)
-    check_pair_memory(q, tree, gap)
-    lab = euclidean_clusters(q, gap, params.min_points, tree=tree)
+    lab = gap_clusters(q, gap, params.min_points)
     order = np.argsort(lab, kind="stable")
     bounds = np.r_[0, np.cumsum(np.bincount(lab))]
     rings: list[Island] = []
     for g in range(1, len(bounds) - 1):  # loop over groups of arcs
         sub = order[bounds[g] : bounds[g + 1]]
-        p = q[sub]
-        ext = np.ptp(p, axis=0)
-        if np.hypot(*ext) < params.min_support_size_m:
-            continue
-        circle = fit_circle(p)
-        if not circle or not RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]:
-            continue
-        c_rms = trimmed_rms(circle.residuals(p))
-        centre = p.mean(axis=0)
-        ev = np.linalg.eigvalsh(np.cov((p - centre).T))
-        line_rms = float(np.sqrt(max(ev[0], 0.0)))
-        ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
-        sectors = np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int))
-        if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms or len(sectors) < 9:
-            continue
-        rings.append(
-            Island(
-                "column", left[sub], np.asarray(circle.center), float(circle.radius), 0.0,
-                ext, float("nan"), c_rms, line_rms,
-            )
-        )  # fmt: skip
+        ring = ring_island(q[sub], left[sub], params)
+        if ring is not None:
+            rings.append(ring)
     if not rings:
         return islands
     used = np.zeros(len(xy), dtype=bool)
@@ -82,6 +90,60 @@ def rings_from_arcs(
         used[r.index] = True
     kept = [i for i in islands if i.kind != "noise" or not used[i.index].any()]
     return kept + rings
+
+
+def ring_island(p: Array, index: NDArray[np.intp], params: SupportParams) -> Island | None:
+    """A column island when a circle explains the points ``p`` (section indices
+    ``index``): radius in ``RING_RADIUS_M``, trimmed RMS within 1 cm + 3 % of the radius
+    and at most half that of a straight line, the points spread over at least a quarter
+    of the ring (9 of 36 sectors); else None."""
+    ext = np.ptp(p, axis=0)
+    if len(p) < 5 or np.hypot(*ext) < params.min_support_size_m:
+        return None
+    circle = fit_circle(p)
+    if not circle or not RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]:
+        return None
+    c_rms = trimmed_rms(circle.residuals(p))
+    centre = p.mean(axis=0)
+    ev = np.linalg.eigvalsh(np.cov((p - centre).T))
+    line_rms = float(np.sqrt(max(ev[0], 0.0)))
+    ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
+    sectors = np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int))
+    if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms or len(sectors) < 9:
+        return None
+    return Island(
+        "column", np.asarray(index), np.asarray(circle.center), float(circle.radius), 0.0,
+        ext, float("nan"), c_rms, line_rms,
+    )  # fmt: skip
+
+
+def twin_rings(
+    p: Array, index: NDArray[np.intp], params: SupportParams
+) -> tuple[Island, Island] | None:
+    """Two column islands when the points ``p`` are two rings side by side (twin columns
+    grouped as one at a large gap, which a rectangle can fit as well as a pier).
+
+    The points are split across the middle of their major axis, and again around the
+    two centres found (2-means, a few rounds); both halves must pass the ring test of
+    :func:`ring_island` with radii within 30 % of each other.
+    """
+    if len(p) < 2 * max(params.min_points, 5):
+        return None
+    m = p.mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov((p - m).T))
+    side = (p - m) @ vec[:, 1] > 0
+    for _ in range(3):  # 2-means from the split across the major axis
+        if side.all() or not side.any():
+            return None
+        c0, c1 = p[~side].mean(axis=0), p[side].mean(axis=0)
+        side = np.hypot(*(p - c1).T) < np.hypot(*(p - c0).T)
+    a = ring_island(p[~side], index[~side], params)
+    b = ring_island(p[side], index[side], params)
+    if a is None or b is None or not 0.7 <= a.radius / b.radius <= 1 / 0.7:
+        return None
+    if np.hypot(*(a.center - b.center)) < 0.9 * (a.radius + b.radius):
+        return None  # overlapping circles: one ring fitted twice
+    return a, b
 
 
 def engaged_on_wall(

@@ -11,7 +11,14 @@ from pyheracles.geometry.sections import circularity
 from pyheracles.segment.euclidean import euclidean_clusters
 from pyheracles.supports.core import Array, Island, SupportParams, check_pair_memory, trimmed_rms
 from pyheracles.supports.piers import rect_rms
-from pyheracles.supports.rings import ARC_GAP_M, rings_from_arcs
+from pyheracles.supports.rings import (
+    ARC_GAP_M,
+    RING_RADIUS_M,
+    gap_clusters,
+    ring_island,
+    rings_from_arcs,
+    twin_rings,
+)
 
 
 def island_kind(length: Array, width: Array, params: SupportParams) -> NDArray[np.str_]:
@@ -52,7 +59,18 @@ def classify_island(
         r_rms, rect = rect_rms(p, centre, angle, size.copy())
         if circle and circle.radius < length:
             c_rms = trimmed_rms(circle.residuals(p))
-        if circle and c_rms < r_rms and (circ <= params.circularity_max or c_rms < 0.5 * r_rms):
+        # a partial ring (a column seen from one side: its hull is no circle) whose
+        # circle lies within the noise of the ring test and beats the rectangle is a
+        # column too: a rectangle fits a half ring of a small column almost as well
+        on_ring = bool(circle) and (
+            RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]
+            and c_rms <= 0.01 + 0.03 * circle.radius
+        )
+        if (
+            circle
+            and c_rms < r_rms
+            and (circ <= params.circularity_max or c_rms < 0.5 * r_rms or on_ring)
+        ):
             kind, centre, radius = "column", circle.center, circle.radius
         else:
             kind, centre, size = "pier", rect[:2], rect[2:]
@@ -99,12 +117,22 @@ def section_islands(
     return out
 
 
-#: The points left over are grouped again at this many times their own median distance
-#: to the third nearest left-over point (at most ``ARC_GAP_M``).
-SPARSE_GAP_FACTOR = 2.5
+#: The points left over are grouped again at gaps doubling from twice the clustering
+#: distance up to ``ARC_GAP_M``.
+SPARSE_GAP_STEP = 2.0
 #: A sparse group is a pier when its points lie this close (plus 2 % of its length) to a
 #: rectangle, trimmed RMS, metres (the ring test of ``rings_from_arcs`` allows 1 cm + 3 %).
 SPARSE_RECT_RMS_M = 0.01
+
+
+def sparse_gaps(distance_m: float) -> list[float]:
+    """Gaps at which the points left over are grouped again, largest first (metres)."""
+    gaps = [ARC_GAP_M]
+    g = SPARSE_GAP_STEP * distance_m
+    while g < ARC_GAP_M / 1.2:
+        gaps.append(g)
+        g *= SPARSE_GAP_STEP
+    return sorted(set(gaps), reverse=True) if distance_m < ARC_GAP_M else []
 
 
 def sparse_islands(
@@ -117,40 +145,35 @@ def sparse_islands(
     """Supports whose section points are further apart than the clustering distance.
 
     The clustering distance follows the densest surfaces; a support far from the
-    scanners, or seen by one distant station, has its section points further apart, so
-    they are left unclustered or in noise islands.  These left-over points are grouped
-    again at their own spacing (``SPARSE_GAP_FACTOR`` times the median distance to the
-    third nearest left-over point, between ``distance_m`` and ``ARC_GAP_M``), and each
-    group of at least ``min_points`` is classified like any island; columns are kept, and
-    piers whose points lie on a rectangle outline (``SPARSE_RECT_RMS_M``; twin columns
-    grouped as one do not), the rest stays noise.
+    scanners, or seen by one distant station, is crossed by scan lines further apart
+    (the gaps between them grow with the range), so its section points are left
+    unclustered or in noise islands.  These left-over points are grouped again at
+    gaps growing from twice ``distance_m`` to ``ARC_GAP_M`` (:func:`sparse_gaps`), the
+    largest first: each group of at least ``min_points`` is classified like any island;
+    columns are kept, and piers whose points lie on a rectangle outline
+    (``SPARSE_RECT_RMS_M``; twin columns grouped as one do not), and their points leave
+    the pool; what is left (a support merged with a chair or a neighbour at the large
+    gap) is grouped again at the next smaller one; the rest stays noise.  So every
+    support is grouped at the local gap of its own scan lines, not one global spacing.
     """
     used = np.zeros(len(xy), dtype=bool)
     for i in islands:
         if i.kind != "noise":
             used[i.index] = True
-    left = np.flatnonzero(~used)
-    if len(left) < max(params.min_points, 4):
-        return islands
-    q = xy[left]
-    tree = cKDTree(q)
-    d, _ = tree.query(q, k=4)
-    gap = float(np.clip(SPARSE_GAP_FACTOR * np.median(d[:, 3]), distance_m, ARC_GAP_M))
-    if gap <= distance_m * 1.01:
-        return islands
-    check_pair_memory(q, tree, gap)
-    lab = euclidean_clusters(q, gap, params.min_points, tree=tree)
-    order = np.argsort(lab, kind="stable")
-    bounds = np.r_[0, np.cumsum(np.bincount(lab))]
     found: list[Island] = []
-    for g in range(1, len(bounds) - 1):  # loop over groups
-        sub = left[order[bounds[g] : bounds[g + 1]]]
-        isl = classify_island(xy[sub], sub, params)
-        # a sparse pier is a rectangle outline: two twin columns grouped as one are not
-        if isl.kind == "column" or (
-            isl.kind == "pier" and isl.rect_rms <= SPARSE_RECT_RMS_M + 0.02 * float(isl.size[0])
-        ):
-            found.append(isl)
+    for gap in sparse_gaps(distance_m):  # a few scales, largest first
+        left = np.flatnonzero(~used)
+        if len(left) < max(params.min_points, 4):
+            break
+        lab = gap_clusters(xy[left], gap, params.min_points)
+        order = np.argsort(lab, kind="stable")
+        bounds = np.r_[0, np.cumsum(np.bincount(lab))]
+        for g in range(1, len(bounds) - 1):  # loop over groups
+            sub = left[order[bounds[g] : bounds[g + 1]]]
+            got = sparse_group(xy[sub], sub, params)
+            found += got
+            if got:
+                used[sub] = True
     if not found:
         return islands
     taken = np.zeros(len(xy), dtype=bool)
@@ -158,3 +181,24 @@ def sparse_islands(
         taken[i.index] = True
     kept = [i for i in islands if i.kind != "noise" or not taken[i.index].any()]
     return kept + found
+
+
+def sparse_group(p: Array, index: NDArray[np.intp], params: SupportParams) -> list[Island]:
+    """The supports of one group of sparse section points: a ring (a few scan-line
+    bunches fit a rectangle as well as a circle, the ring test decides), two rings side
+    by side (twin columns), a column island, or a pier whose points lie on a rectangle
+    outline (``SPARSE_RECT_RMS_M``); else none."""
+    ring = ring_island(p, index, params)
+    if ring is not None:
+        return [ring]
+    isl = classify_island(p, index, params)
+    if isl.kind == "column":
+        return [isl]
+    if isl.kind != "pier":
+        return []
+    twins = twin_rings(p, index, params)
+    if twins is not None:
+        return list(twins)
+    if isl.rect_rms <= SPARSE_RECT_RMS_M + 0.02 * float(isl.size[0]):
+        return [isl]
+    return []
