@@ -38,6 +38,7 @@ import numpy as np
 
 from _common import emit
 from pyheracles.beams import segment_beams
+from pyheracles.beams.frame import analyse_frame
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import estimate_normals
 from pyheracles.segment.regiongrow import RegionGrowingParams, region_growing
@@ -503,6 +504,7 @@ def member_scores(sim, result) -> dict:
         "axis_1deg": bool(max_axis <= SWEEP_AXIS_DEG),
     }
     return {
+        "match_found": np.where(f1 >= 0.5, match, 0).tolist(),  # popped by the sweep
         "n_members": n_mem,
         "n_visible": len(vis),
         "n_hidden": int(n_mem - len(vis)),
@@ -549,6 +551,151 @@ def member_scores(sim, result) -> dict:
     }
 
 
+#: Deflection target on bent members, metres (issue 13).
+SWEEP_DEFLECTION_M = 0.003
+#: Share of true joints found with the right pair of members (issue 13).
+SWEEP_JOINT_RECALL = 0.9
+
+
+def frame_scores(sim, result, frame, match: list[int]) -> dict:
+    """Joints, roles, deflection and twist of a ``roof`` draw against its truth.
+
+    ``match[j]`` is the found beam (1-based, 0 = none or F1 < 0.5) of member
+    ``j + 1`` (:func:`member_scores`).  A true joint counts when both its members are
+    findable (a seen face); it is found when the found beams matched to its two
+    members are joined.  Deflection is scored on bent members matched at
+    F1 >= 0.5 (measured minus true sag), twist on twisted ones (the truth turns
+    the section about ``-axis``: its twist is the negative of ours).
+    """
+    from collections import Counter
+
+    objs = sorted(
+        (o for o in sim.scene.objects if o["class"] == "beam"), key=lambda o: o["instance"]
+    )
+    match = np.asarray(match)
+    seen = np.array([o["faces_seen"] >= 1 for o in objs])
+    # every found beam stands for the member holding most of its points (a member
+    # split in pieces is joined through any of them)
+    res = sim.clouds["cloud"]
+    good = ~res.outlier
+    cont = np.zeros((len(result.beams) + 1, len(objs) + 1), np.int64)
+    truth = np.where(np.isin(res.instance, [o["instance"] for o in objs]), res.instance, 0)
+    np.add.at(cont, (result.labels[good], truth[good]), 1)
+    dom = {}
+    for f in range(1, len(result.beams) + 1):
+        j = int(cont[f, 1:].argmax()) + 1
+        if cont[f, j] >= 0.5 * cont[f].sum() and cont[f, j] > 0:
+            dom[f] = j
+    found_pairs: dict[tuple[int, int], str] = {}
+    judged = correct = 0
+    true_set = {tuple(sorted(jt["members"])) for jt in sim.params["joints"]}
+    for jt in frame.joints:
+        a, b = (dom.get(int(k)) for k in jt.members)
+        if a is None or b is None or a == b:
+            continue
+        pair = tuple(sorted((a, b)))
+        judged += 1
+        correct += pair in true_set
+        found_pairs.setdefault(pair, jt.type)
+    true_pairs, hits, types = 0, 0, Counter()
+    both_matched = 0
+    for jt in sim.params["joints"]:
+        a, b = jt["members"]
+        if not (seen[a - 1] and seen[b - 1]):
+            continue
+        true_pairs += 1
+        if match[a - 1] == 0 or match[b - 1] == 0:
+            continue
+        both_matched += 1
+        got = found_pairs.get(tuple(sorted((a, b))))
+        if got is not None:
+            hits += 1
+            types[f"{jt['type']}->{got}"] += 1
+    member_of = {int(f): j for j, f in enumerate(match) if f > 0}
+    defl, defl_seen, defl_span, straight_defl, twist = [], [], [], [], []
+    roles: Counter = Counter()
+    unmeasured_bent = 0
+    for j, o in enumerate(objs):
+        f = int(match[j])
+        if f == 0:
+            continue
+        sh = frame.shapes[f - 1]
+        if o["deflection_m"] > 0:
+            if np.isfinite(sh.deflection_m):
+                defl.append(sh.deflection_m - o["deflection_m"])
+                # the true sag over the scanned part (the chord of its ends): d (t1 - t0)^2
+                cu = o["cuboid"]
+                pts = res.xyz[(res.instance == j + 1) & ~res.outlier]
+                t = (pts - np.asarray(cu["centre"])) @ np.asarray(cu["axis"]) / cu["length"]
+                t0, t1 = np.clip(np.quantile(t, [0.005, 0.995]) + 0.5, 0.0, 1.0)
+                defl_seen.append(sh.deflection_m - o["deflection_m"] * (t1 - t0) ** 2)
+                # ... and over the part the measurement spans (its first to last slice)
+                cub = result.beams[f - 1]
+                a = sh.centreline[:, 0]
+                half = 0.5 * (sh.measured_length_m - (a.max() - a.min()))
+                ends = cub.centre + np.outer([a.min() - half, a.max() + half], cub.axis)
+                u = (ends - np.asarray(cu["centre"])) @ np.asarray(cu["axis"]) / cu["length"]
+                u0, u1 = np.clip(np.sort(u) + 0.5, 0.0, 1.0)
+                defl_span.append(sh.deflection_m - o["deflection_m"] * (u1 - u0) ** 2)
+            else:
+                unmeasured_bent += 1
+        elif o["twist_deg"] == 0 and np.isfinite(sh.deflection_m):
+            straight_defl.append(sh.deflection_m)
+        if o["twist_deg"] != 0 and np.isfinite(sh.twist_deg):
+            twist.append(sh.twist_deg + o["twist_deg"])
+        roles[f"{o['role']}->{frame.roles[f - 1]}"] += 1
+    n_roles = sum(roles.values())
+    role_ok = sum(v for k, v in roles.items() if k.split("->")[0] == k.split("->")[1])
+    spurious = [f for f in range(1, len(result.beams) + 1) if f not in member_of]
+    names = sim.scene.class_names
+    spurious_in_frame: Counter = Counter()
+    for f in spurious:
+        if frame.in_frame[f - 1]:
+            codes = res.class_id[good & (result.labels == f)]
+            top = int(np.bincount(codes).argmax()) if len(codes) else -1
+            spurious_in_frame[names.get(top, "?")] += 1
+    d, d_seen, d_span = np.abs(defl), np.abs(defl_seen), np.abs(defl_span)
+    recall = hits / true_pairs if true_pairs else 1.0
+    return {
+        "n_true_joints": true_pairs,
+        "n_true_joints_both_matched": both_matched,
+        "n_joints_found": len(frame.joints),
+        "n_joint_hits": hits,
+        "joint_recall": recall,
+        "joint_recall_both_matched": hits / both_matched if both_matched else 1.0,
+        "joint_precision": correct / judged if judged else 1.0,
+        "joint_types": dict(types),
+        "joint_type_agreement": (
+            sum(v for k, v in types.items() if k.split("->")[0] == k.split("->")[1]) / hits
+            if hits
+            else None
+        ),
+        "role_accuracy": role_ok / n_roles if n_roles else None,
+        "role_confusions": {k: v for k, v in roles.items() if k.split("->")[0] != k.split("->")[1]},
+        "members_out_of_frame": int(sum(not frame.in_frame[f - 1] for f in member_of)),
+        "spurious_out_of_frame": int(sum(not frame.in_frame[f - 1] for f in spurious)),
+        "spurious_in_frame_by_class": dict(spurious_in_frame),
+        "n_spurious": len(spurious),
+        "n_bent": len(defl) + unmeasured_bent,
+        "bent_unmeasured": unmeasured_bent,
+        "deflection_max_err_mm": float(1000 * d.max()) if len(d) else None,
+        "deflection_median_err_mm": float(1000 * np.median(d)) if len(d) else None,
+        "deflection_within_3mm": float(np.mean(d <= SWEEP_DEFLECTION_M)) if len(d) else None,
+        "deflection_signed_err_mm": [round(1000 * v, 1) for v in defl],
+        "deflection_scanned_part_max_err_mm": float(1000 * d_seen.max()) if len(d) else None,
+        "deflection_measured_span_err_mm": [round(1000 * v, 1) for v in d_span],
+        "straight_deflection_max_mm": (
+            float(1000 * np.max(straight_defl)) if straight_defl else None
+        ),
+        "n_twisted": len(twist),
+        "twist_max_err_deg": float(np.max(np.abs(twist))) if twist else None,
+        "frame_targets": {
+            "joint_recall_090": bool(recall >= SWEEP_JOINT_RECALL),
+            "deflection_3mm": bool(len(d) == 0 or d.max() <= SWEEP_DEFLECTION_M),
+        },
+    }
+
+
 def _spacing_of(xyz: np.ndarray) -> float | None:
     from pyheracles.geometry.neighbours import point_spacing
 
@@ -583,6 +730,9 @@ def sweep(n: int, first: int = 0) -> None:
         except InputError as exc:
             result, error = None, str(exc)
         t_step = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        frame = analyse_frame(res.xyz, result) if result is not None else None
+        t_frame = time.perf_counter() - t0
         P = sim.params
         key = {
             k: P[k]
@@ -616,8 +766,10 @@ def sweep(n: int, first: int = 0) -> None:
                 "median_f1": 0.0,
                 "n_members": P["n_members"],
             }
+            s.update(frame_targets=dict.fromkeys(("joint_recall_090", "deflection_3mm"), False))
         else:
             s = member_scores(sim, result)
+            s.update(frame_scores(sim, result, frame, s.pop("match_found")))
         row = emit(
             dataset=f"roof/seed{seed}",
             metric="beams_family_draw",
@@ -628,6 +780,7 @@ def sweep(n: int, first: int = 0) -> None:
             **s,
             gen_time_s=round(t_gen, 2),
             time_s=round(t_step, 2),
+            frame_time_s=round(t_frame, 2),
             points_per_s=len(res) / max(t_step, 1e-9),
             load_avg_1min=_load(),
         )
@@ -694,6 +847,53 @@ def summarize(rows: list[dict], t_gen_total: float | None = None) -> None:
         step_time_total_s=round(float(sum(r["time_s"] for r in rows)), 1),
         target="count exact, every member F1 >= 0.5, median F1 >= 0.95, width/height <= 1 cm "
         "(members seen on >= 2 faces), axis <= 1 deg",
+    )
+    _summarize_frame(rows)
+
+
+def _summarize_frame(rows: list[dict]) -> None:
+    """The frame targets over the draws: joint recall (pooled, worst draw), deflection."""
+    scored = [r for r in rows if "n_true_joints" in r]
+    if not scored:
+        return
+    n_true = sum(r["n_true_joints"] for r in scored)
+    n_both = sum(r["n_true_joints_both_matched"] for r in scored)
+    hits = sum(r["n_joint_hits"] for r in scored)
+    worst_j = min(scored, key=lambda r: r["joint_recall"])
+    errs = [abs(e) for r in scored for e in r.get("deflection_signed_err_mm", [])]
+    span = [e for r in scored for e in r.get("deflection_measured_span_err_mm", [])]
+    bent = [r for r in scored if r.get("deflection_max_err_mm") is not None]
+    worst_d = max(bent, key=lambda r: r["deflection_max_err_mm"]) if bent else None
+    twist = [r["twist_max_err_deg"] for r in scored if r.get("twist_max_err_deg") is not None]
+    roles = [r["role_accuracy"] for r in scored if r.get("role_accuracy") is not None]
+    emit(
+        dataset="roof",
+        metric="frame_sweep_summary",
+        value=hits / n_true if n_true else None,
+        n_draws=len(scored),
+        joint_recall=hits / n_true if n_true else None,
+        joint_recall_both_matched=hits / n_both if n_both else None,
+        joint_precision_median=float(np.median([r["joint_precision"] for r in scored])),
+        joint_recall_worst_seed=worst_j["seed"],
+        joint_recall_worst=worst_j["joint_recall"],
+        joint_recall_both_matched_worst=min(r["joint_recall_both_matched"] for r in scored),
+        share_draws_joint_recall_090=float(np.mean([r["joint_recall"] >= 0.9 for r in scored])),
+        n_bent_scored=len(errs),
+        bent_unmeasured=int(sum(r.get("bent_unmeasured", 0) for r in scored)),
+        deflection_share_within_3mm=float(np.mean(np.array(errs) <= 3.0)) if errs else None,
+        deflection_median_err_mm=float(np.median(errs)) if errs else None,
+        deflection_max_err_mm=max(errs) if errs else None,
+        deflection_worst_seed=worst_d["seed"] if worst_d else None,
+        deflection_scanned_part_max_err_mm=max(
+            (r["deflection_scanned_part_max_err_mm"] for r in bent), default=None
+        ),
+        deflection_measured_span_within_3mm=float(np.mean(np.array(span) <= 3.0)) if span else None,
+        deflection_measured_span_max_err_mm=max(span) if span else None,
+        twist_max_err_deg=max(twist) if twist else None,
+        role_accuracy_median=float(np.median(roles)) if roles else None,
+        frame_time_total_s=round(float(sum(r.get("frame_time_s", 0.0) for r in scored)), 1),
+        target="joints: >= 90 % of true joints found with the right pair; deflection within "
+        "3 mm on members bent 5-30 mm",
     )
 
 

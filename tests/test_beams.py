@@ -330,6 +330,13 @@ def test_cli_beams_writes_outputs(tmp_path, roof):
 
     ifc = ifcopenshell.open(str(out / "model.ifc"))
     assert len(ifc.by_type("IfcBeam")) + len(ifc.by_type("IfcMember")) == 15
+    # the frame analysis's roles choose the IFC class and type (rafters are IfcMember RAFTER)
+    from pyheracles.export.ifc import ROLE_TO_IFC
+
+    roles = pd.read_csv(out / "objects.csv").set_index("instance")["role"]
+    for el in ifc.by_type("IfcBeam") + ifc.by_type("IfcMember"):
+        role = roles.loc[int(el.Name.split()[-1])]
+        assert (el.is_a(), el.PredefinedType) == ROLE_TO_IFC[role]
     las = laspy.read(out / "segmented.laz")
     assert len(las.points) == int(sub.sum())
     table = pd.read_csv(out / "objects.csv")

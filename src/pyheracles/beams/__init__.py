@@ -10,11 +10,14 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    walls, boarding: wider than the widest beam face in every direction,
    :func:`~pyheracles.beams.facets.wide_surface_points`), which are left out;
    :func:`~pyheracles.segment.regiongrow.region_growing` then cuts the rest,
-   with thresholds from the rest, into smooth planar *facets* (the faces of
-   the beams; coplanar faces of beams meeting in a joint come out as one L-,
-   T-, X- or Y-shaped facet); a region
-   that bridged two faces of a beam along a rounded edge is split by its
-   dominant normal directions;
+   with thresholds from the rest (the angle capped below the step of the
+   normals round a beam's edge,
+   :func:`~pyheracles.beams.facets.face_noise_thresholds`), into smooth planar
+   *facets* (the faces of the beams; coplanar faces of beams meeting in a
+   joint come out as one L-, T-, X- or Y-shaped facet); a region that bridged
+   two faces of a beam along a rounded edge is split by its dominant normal
+   directions, and one that joined parallel faces at different offsets (the
+   undersides of rafters and the boarding between them) into its layers;
 2. :func:`split_facet` cuts every facet into *straight facets*: bands of
    constant width found with a Hough-style search in the facet plane (the
    direction and offset whose band holds the densest line of points, longest
@@ -28,6 +31,11 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    group no single beam can be (two coplanar faces side by side); a beam
    needs at least two facets with non-parallel normals (otherwise no cuboid
    is defined) and the rest goes back to the pool;
+   the pieces of one face that no beam took make a *beam seen on one face*
+   when the band is convex (its side points lie behind it, away from the
+   room it was scanned from; a boarding strip between two rafters is a
+   concave channel), with the depth from its side points or flagged as not
+   measured (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`);
 4. collinear pieces of one beam (cut by a crossing beam in an X joint or by
    a shadow) are merged, and :func:`fit_beam_cuboid` fits one oriented cuboid
    per beam from its facets, lengthened over the short ends that gave no
@@ -43,6 +51,7 @@ from __future__ import annotations
 
 from pyheracles.beams.bands import split_facet
 from pyheracles.beams.cuboids import fit_beam_cuboid
+from pyheracles.beams.frame import FrameParams, FrameResult, analyse_frame
 from pyheracles.beams.grouping import group_facets
 from pyheracles.beams.model import (
     BEAM_CLASS,
@@ -60,7 +69,10 @@ __all__ = [
     "BeamCuboid",
     "BeamParams",
     "BeamResult",
+    "FrameParams",
+    "FrameResult",
     "StraightFacet",
+    "analyse_frame",
     "fit_beam_cuboid",
     "group_facets",
     "segment_beams",

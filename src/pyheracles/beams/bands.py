@@ -35,7 +35,7 @@ def best_direction(
 
 
 def sharpest_direction(
-    q: NDArray[np.float64], ang0: float, half_range: float, bin_m: float
+    q: NDArray[np.float64], ang0: float, half_range: float, bin_m: float, n_angles: int = 81
 ) -> float:
     """Direction near ``ang0`` across which the band is narrowest.
 
@@ -43,10 +43,11 @@ def sharpest_direction(
     (0.5 to 99.5 % quantiles) is smallest when aligned.  Unlike PCA this is not
     pulled by an uneven density (overlapping scans) or by a crossing beam's
     points inside the band, and unlike a histogram sharpness it does not lock on
-    the scan-line pattern.
+    the scan-line pattern.  ``n_angles`` directions are tried over
+    ``ang0 +- half_range``.
     """
     del bin_m  # the extent needs no histogram
-    angles = ang0 + np.linspace(-half_range, half_range, 81)
+    angles = ang0 + np.linspace(-half_range, half_range, n_angles)
     s = -q[:, :1] * np.sin(angles) + q[:, 1:] * np.cos(angles)
     lo, hi = np.quantile(s, [0.005, 0.995], axis=0)
     score = -(hi - lo)
@@ -129,7 +130,7 @@ def split_facet(
         cand = live[in_band]
         if len(cand) > 3000:
             cand = gen.choice(cand, 3000, replace=False)
-        ang = sharpest_direction(q_all[cand], ang, np.radians(6.0), bin_m)
+        ang = sharpest_direction(q_all[cand], ang, np.radians(6.0), bin_m, n_angles=41)
         ang = sharpest_direction(q_all[cand], ang, np.radians(0.3), bin_m)
         d2 = np.array([np.cos(ang), np.sin(ang)])
         n2 = np.array([-np.sin(ang), np.cos(ang)])
@@ -165,7 +166,7 @@ def split_facet(
                     r_idx = r_idx[on]
                     c_run, n_run, _ = plane_frame(pts[r_idx])
                     q_run = q_all[r_idx]
-                    a_run = sharpest_direction(q_run, ang, np.radians(6.0), bin_m)
+                    a_run = sharpest_direction(q_run, ang, np.radians(6.0), bin_m, n_angles=41)
                     a_run = sharpest_direction(q_run, a_run, np.radians(0.3), bin_m)
                     d_run = np.array([np.cos(a_run), np.sin(a_run)])
                     lo_r, hi_r = half_max_edges(

@@ -8,10 +8,12 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 __all__ = [
+    "face_noise_thresholds",
     "half_max_edges",
     "on_own_plane",
     "planar_parts",
     "plane_frame",
+    "plane_layers",
     "wide_surface_points",
 ]
 
@@ -21,6 +23,78 @@ def plane_frame(p: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
     c = p.mean(axis=0)
     _, _, vt = np.linalg.svd(p - c, full_matrices=False)
     return c, vt[2], vt[:2]
+
+
+def face_noise_thresholds(
+    xyz: NDArray[np.float64],
+    tree: cKDTree,
+    k: int,
+    gen: np.random.Generator,
+    *,
+    n_sample: int = 5000,
+    where: NDArray[np.int64] | None = None,
+) -> tuple[float, float]:
+    """Angle and curvature thresholds of region growing that cannot bridge an edge.
+
+    Region growing's automatic angle (3 times the median angle between
+    neighbouring normals, capped at 20 degrees) follows the noise of the
+    normals.  On noisy narrow beam faces that median is large, and the cap
+    is above the step between neighbouring normals across the band of
+    blended normals along a beam's edge: the region then grows round the
+    edge and joins perpendicular faces (and through them whole trusses).
+    The normals of ``k``-neighbourhoods (radius ``r_k = s sqrt(k / pi)`` on a
+    surface of spacing ``s``) turn by 90 degrees over about ``2 r_k`` across an
+    edge, so nearest neighbours there differ by about
+    ``90 / (2 sqrt(k / pi))`` degrees (16 for ``k = 24``), whatever the
+    spacing; the angle is capped at half of that (8 degrees for ``k = 24``).
+
+    The median is taken on a random sample of ``k``-neighbour pairs (edges of
+    the growing graph) of the candidate points, with PCA normals and
+    curvatures computed here.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` candidate points (not wide surfaces), metres.
+    tree
+        KD-tree on ``xyz``.
+    k
+        Neighbourhood size of the normals (as in region growing).
+    gen
+        Random generator of the sample.
+    n_sample
+        Pairs sampled.
+    where
+        Indices of the points to sample; ``None``: all.
+
+    Returns
+    -------
+    angle_deg, curvature_max
+        3 times the median angle between neighbouring normals, clipped to
+        [3, cap] degrees; 2 times the median curvature, clipped to
+        [0.01, 0.1] (region growing's own rule).
+    """
+    n = len(xyz)
+    pool = np.arange(n) if where is None else np.asarray(where, dtype=np.int64)
+    sample = gen.choice(pool, min(n_sample, len(pool)), replace=False)
+    kk = min(k, n)
+    _, nb = tree.query(xyz[sample], k=kk, workers=-1)
+    # an edge of the growing graph: the point and one of its k neighbours
+    pair = nb[np.arange(len(sample)), gen.integers(1, kk, len(sample))]
+    _, nb_pair = tree.query(xyz[pair], k=kk, workers=-1)
+    pts = xyz[np.vstack([nb, nb_pair])]
+    pts = pts - pts.mean(axis=1, keepdims=True)
+    cov = np.einsum("nki,nkj->nij", pts, pts)
+    vals, vecs = np.linalg.eigh(cov)
+    total = vals.sum(axis=1)
+    curv = np.where(total > 0, vals[:, 0] / np.where(total > 0, total, 1.0), 1.0 / 3.0)
+    nrm = vecs[:, :, 0]
+    m = len(sample)
+    cos = np.abs(np.einsum("ij,ij->i", nrm[:m], nrm[m:]))
+    med_a = float(np.median(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))))
+    cap = 0.5 * 90.0 / (2.0 * np.sqrt(kk / np.pi))
+    angle = float(np.clip(3.0 * med_a, 3.0, max(cap, 3.0)))
+    return angle, float(np.clip(2.0 * float(np.median(curv)), 0.01, 0.1))
 
 
 def half_max_edges(
@@ -103,6 +177,58 @@ def planar_parts(
         parts.append(index[inl])
         live[inl] = False
     return parts
+
+
+def plane_layers(
+    xyz: NDArray[np.float64],
+    index: NDArray[np.int64],
+    min_points: int,
+    *,
+    bin_m: float = 0.005,
+    peak_fraction: float = 0.2,
+) -> list[NDArray[np.int64]]:
+    """Split a planar part into the parallel layers it holds.
+
+    Region growing can join parallel faces at different offsets through the
+    sparse, noisy faces between them: the undersides of common rafters and the
+    boarding strips between them are joined through the rafters' sides, with
+    one normal.  Projected on their plane they interleave into one surface and
+    no band can be cut.  Along the normal the layers are dense peaks of the
+    offset histogram (``bin_m`` bins, 3-bin smoothing); the points between them
+    (the sides) are sparse.  Bins above ``peak_fraction`` of the highest,
+    joined across one-bin gaps, make the layers; points within three bins of a
+    layer go to it, the others are left out.  A face bent or stepped by a few
+    centimetres gives one contiguous run of bins: one layer.  With fewer than
+    two layers of ``min_points`` the part comes back whole.
+    """
+    if len(index) < 2 * min_points:
+        return [index]
+    pts = xyz[index]
+    c, n, _ = plane_frame(pts)
+    h = (pts - c) @ n
+    lo = float(h.min())
+    nb = int(np.ceil((float(h.max()) - lo) / bin_m)) + 1
+    if nb < 5:
+        return [index]
+    b = np.minimum(((h - lo) / bin_m).astype(np.int64), nb - 1)
+    hist = np.convolve(np.bincount(b, minlength=nb).astype(float), np.ones(3) / 3.0, mode="same")
+    dense = hist >= peak_fraction * hist.max()
+    # one-bin gaps do not separate layers
+    dense[1:-1] |= dense[:-2] & dense[2:]
+    lab, n_lay = ndimage.label(dense)
+    if n_lay < 2:
+        return [index]
+    # every bin to its nearest layer, within three bins
+    bins = np.arange(nb)
+    layer_bins = np.flatnonzero(lab > 0)
+    nearest = layer_bins[np.abs(bins[:, None] - layer_bins[None, :]).argmin(axis=1)]
+    owner = np.where(np.abs(bins - nearest) <= 3, lab[nearest], 0)
+    parts = []
+    for k in range(1, n_lay + 1):
+        sel = index[owner[b] == k]
+        if len(sel) >= min_points:
+            parts.append(sel)
+    return parts if len(parts) >= 2 else [index]
 
 
 def on_own_plane(p: NDArray[np.float64], n_sigma: float = 3.0) -> NDArray[np.bool_]:

@@ -8,7 +8,14 @@ from scipy.spatial import cKDTree
 
 from pyheracles.beams.model import StraightFacet
 
-__all__ = ["UnionFind", "group_facets", "inconsistent", "pair_relation", "spans_barrier"]
+__all__ = [
+    "UnionFind",
+    "face_runs",
+    "group_facets",
+    "inconsistent",
+    "pair_relation",
+    "spans_barrier",
+]
 
 
 class UnionFind:
@@ -261,3 +268,63 @@ def group_facets(
     for rank, (_, r) in enumerate(sorted(kept, key=lambda t: (-t[0], t[1]))):
         group[roots == r] = rank + 1
     return group
+
+
+def face_runs(
+    xyz: NDArray[np.float64],
+    facets: list[StraightFacet],
+    which: NDArray[np.int64],
+    *,
+    parallel_deg: float,
+    max_gap_m: float,
+    width_range: tuple[float, float],
+) -> list[list[int]]:
+    """Pieces of one face: the facets ``which`` joined by continuation only.
+
+    A beam seen on one face only (its sides too sparse, too grazing or hidden
+    for a facet) leaves that face as straight facets that no group takes, often
+    in pieces cut by crossing members.  Pieces that continue each other
+    (:func:`pair_relation` ``"continuation"``: coplanar, on one band line, of
+    similar width, gap at most ``max_gap_m``) are joined.
+
+    Returns
+    -------
+    list of list of int
+        Facet indices of each run, largest (points) first.
+    """
+    which = np.asarray(which, dtype=np.int64)
+    if len(which) == 0:
+        return []
+    cos_par = np.cos(np.radians(parallel_deg))
+    plane_tol = max(3.0 * float(np.median([facets[i].plane_rms for i in which])), 0.01)
+    uf = UnionFind(len(which))
+    spans = []
+    for i in which:
+        t = xyz[facets[i].index] @ facets[i].axis
+        spans.append(t)
+    for a, i in enumerate(which):
+        fa = facets[i]
+        ta = (float(np.quantile(spans[a], 0.01)), float(np.quantile(spans[a], 0.99)))
+        for b in range(a + 1, len(which)):
+            fb = facets[which[b]]
+            if abs(fa.axis @ fb.axis) < cos_par:
+                continue
+            tb_all = xyz[fb.index] @ fa.axis
+            tb = (float(np.quantile(tb_all, 0.01)), float(np.quantile(tb_all, 0.99)))
+            rel = pair_relation(
+                fa,
+                fb,
+                ta,
+                tb,
+                cos_par=cos_par,
+                plane_tol=plane_tol,
+                width_range=width_range,
+                max_gap=max_gap_m,
+                min_overlap=1.0,
+            )
+            if rel == "continuation":
+                uf.union(a, b)
+    runs: dict[int, list[int]] = {}
+    for a, i in enumerate(which):
+        runs.setdefault(uf.find(a), []).append(int(i))
+    return sorted(runs.values(), key=lambda r: -sum(len(facets[i].index) for i in r))

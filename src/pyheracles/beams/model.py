@@ -61,6 +61,11 @@ class BeamParams:
         terrestrial scans (denser neighbourhoods give noisy normals and
         curvature).  Random thinning, unlike a voxel grid, leaves no layering
         of noisy surfaces.
+    one_face
+        Keep beams seen on one face only (their sides too sparse or hidden for
+        a facet): a convex straight band at least twice ``min_elongation``
+        times as long as wide, with the depth behind it read from its side
+        points when there are any (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`).
     """
 
     region: RegionGrowingParams = field(
@@ -77,6 +82,7 @@ class BeamParams:
     min_contact_fraction: float = 0.4
     surface_tolerance_m: float | None = None
     thin_spacing_m: float | None = 0.008
+    one_face: bool = True
 
     def validate(self) -> BeamParams:
         if self.thin_spacing_m is not None and not 0 < self.thin_spacing_m < self.min_beam_width_m:
@@ -152,6 +158,14 @@ class BeamCuboid:
         RMS distance of the beam's facet points to the cuboid surface, metres.
     n_facets
         Straight facets used.
+    faces_seen
+        Sides of the cross-section located by a face of their own (1-4; 0:
+        not counted).  A beam seen on one face only has one.
+    height_measured
+        False when the depth behind a beam's only seen face was not measured
+        (no points on its sides): the cuboid is then a thin slab on that face
+        and its size across the face (``width`` or ``height``, whichever is
+        the depth) is not known.
     """
 
     centre: NDArray[np.float64]
@@ -161,6 +175,8 @@ class BeamCuboid:
     height: float
     rms: float
     n_facets: int
+    faces_seen: int = 0
+    height_measured: bool = True
 
     @property
     def axis(self) -> NDArray[np.float64]:
@@ -238,6 +254,8 @@ class BeamResult:
                     "width_m": b.width,
                     "height_m": b.height,
                     "rms_m": b.rms,
+                    "faces_seen": b.faces_seen,
+                    "height_measured": b.height_measured,
                 }
             )
         columns = [
@@ -256,6 +274,8 @@ class BeamResult:
             "width_m",
             "height_m",
             "rms_m",
+            "faces_seen",
+            "height_measured",
         ]
         return pd.DataFrame(rows, columns=columns)
 

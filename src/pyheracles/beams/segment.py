@@ -10,9 +10,19 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.beams.bands import split_facet
-from pyheracles.beams.cuboids import fit_beam_cuboid, merge_and_absorb
-from pyheracles.beams.facets import planar_parts, wide_surface_points
-from pyheracles.beams.grouping import group_facets
+from pyheracles.beams.cuboids import (
+    collinear,
+    fit_beam_cuboid,
+    fit_one_face_cuboid,
+    merge_and_absorb,
+)
+from pyheracles.beams.facets import (
+    face_noise_thresholds,
+    planar_parts,
+    plane_layers,
+    wide_surface_points,
+)
+from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
 from pyheracles.beams.surfaces import cuboid_contacts, resting_loose, wide_surface_bands
 from pyheracles.cloud import PointCloud
@@ -21,8 +31,10 @@ from pyheracles.geometry.neighbours import as_xyz, build_tree, point_spacing
 from pyheracles.segment.regiongrow import Regions, region_growing
 
 __all__ = [
+    "add_one_face_beams",
     "assign_to_cuboids",
     "candidates",
+    "covered",
     "extend_along_axis",
     "lateral_face_normals",
     "scatter",
@@ -112,6 +124,108 @@ def extend_along_axis(
     return replace(cub, centre=cub.centre + cub.axis * 0.5 * (hi + lo), length=float(hi - lo))
 
 
+def covered(cub: BeamCuboid, beams: list[BeamCuboid], tol: float) -> bool:
+    """Whether most of ``cub``'s centre line lies within ``tol`` of (or inside) one of ``beams``."""
+    u = np.linspace(-0.45, 0.45, 19)[:, None]
+    line = cub.centre + u * cub.length * cub.axis
+    for b in beams:
+        if np.mean(b.signed_distance(line) <= tol) >= 0.5:
+            return True
+    return False
+
+
+def add_one_face_beams(
+    xyz: NDArray[np.float64],
+    tree: cKDTree,
+    facets: list[StraightFacet],
+    facet_beam: NDArray[np.int32],
+    cuboids: list[BeamCuboid],
+    p: BeamParams,
+    bin_m: float,
+    tol: float,
+    free: NDArray[np.float64] | None = None,
+) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
+    """Beams seen on one face: runs of the straight facets no beam took.
+
+    The pieces of one face (:func:`~pyheracles.beams.grouping.face_runs`) make
+    a beam when they form a convex band (:func:`fit_one_face_cuboid`) whose
+    centre line is not already in a found beam; largest runs first.  A run
+    lying on the face of a beam found on several faces, extended by twice
+    ``max_gap_m`` at each end, is a piece of it past the end its facets
+    reached: it joins that beam (``free``: the points in no facet, for its
+    refit by :func:`fit_beam_cuboid`).  A run
+    collinear with a one-face beam already made, or lying on its face
+    extended by twice ``max_gap_m`` at each end (a piece cut off by a shadow
+    or a crossing member), joins it and the cuboid is fitted again.
+    """
+    out = list(cuboids)
+    fb = facet_beam.copy()
+    left = np.flatnonzero(fb == 0)
+    probe = xyz[:: max(1, len(xyz) // 50000)]
+    runs = face_runs(
+        xyz,
+        facets,
+        left,
+        parallel_deg=p.parallel_deg,
+        max_gap_m=p.max_gap_m,
+        width_range=(p.min_beam_width_m, p.max_beam_width_m),
+    )
+    cos_par = np.cos(np.radians(p.parallel_deg))
+
+    def fit(run: list[int], elongation: float) -> BeamCuboid | None:
+        return fit_one_face_cuboid(
+            xyz,
+            tree,
+            [facets[i] for i in run],
+            probe,
+            bin_m=bin_m,
+            max_depth_m=p.max_beam_width_m,
+            min_elongation=elongation,
+        )
+
+    added: dict[int, list[int]] = {}  # beam (0-based) -> its facets
+    n_multi = len(out)
+    for run in runs:
+        pts = xyz[np.concatenate([facets[i].index for i in run])]
+        # a face of a beam found on several faces, past the end its facets reached
+        host = None
+        for k in range(n_multi):
+            b = out[k]
+            if abs(b.axis @ facets[run[0]].axis) < cos_par:
+                continue
+            longer = replace(b, length=b.length + 4.0 * p.max_gap_m)
+            if float(np.median(np.abs(longer.signed_distance(pts)))) <= tol:
+                host = k
+                break
+        if host is not None:
+            members = [facets[i] for i in np.flatnonzero(fb == host + 1)] + [facets[i] for i in run]
+            try:
+                out[host] = fit_beam_cuboid(xyz, members, bin_m=bin_m, free=free)
+            except DegenerateGeometryError:
+                continue
+            fb[run] = host + 1
+            continue
+        cub = fit(run, 2.0 * p.min_elongation)
+        if cub is None or covered(cub, out, tol):
+            continue
+        # a piece of a face already taken, cut off by a shadow or a crossing member
+        for k, prev in added.items():
+            longer = replace(out[k], length=out[k].length + 4.0 * p.max_gap_m)
+            on = float(np.median(np.abs(longer.signed_distance(pts)))) <= tol
+            if on or collinear(out[k], cub, cos_par, 2.0 * p.max_gap_m):
+                merged = fit(prev + run, 0.0)
+                if merged is not None:
+                    out[k] = merged
+                    added[k] = prev + run
+                    fb[run] = k + 1
+                    break
+        else:
+            out.append(cub)
+            added[len(out) - 1] = list(run)
+            fb[run] = len(out)
+    return out, fb
+
+
 def scatter(values: NDArray, index: NDArray[np.int64], n: int) -> NDArray:
     """``values`` of a subset (``index``) spread over ``n`` points, zeros elsewhere."""
     out = np.zeros((n, *values.shape[1:]), dtype=values.dtype)
@@ -193,7 +307,19 @@ def segment_beams(
             path=source,
             hint="check that the cloud shows the frame's members",
         )
-    sub = region_growing(arr[cand], p.region)
+    sub_xyz = arr[cand]
+    sub_tree = build_tree(sub_xyz)
+    region_p = p.region
+    if region_p.angle_deg is None or region_p.curvature_max is None:
+        # from the candidate surfaces (not the floor and walls), capped below
+        # the step of the normals round a beam's edge
+        ang, curv = face_noise_thresholds(sub_xyz, sub_tree, region_p.k, gen)
+        region_p = replace(
+            region_p,
+            angle_deg=region_p.angle_deg if region_p.angle_deg is not None else ang,
+            curvature_max=(region_p.curvature_max if region_p.curvature_max is not None else curv),
+        )
+    sub = region_growing(sub_xyz, region_p, tree=sub_tree)
     regions = Regions(
         labels=scatter(sub.labels, cand, len(arr)),
         normals=scatter(sub.normals, cand, len(arr)),
@@ -216,7 +342,8 @@ def segment_beams(
         if len(idx) < p.min_facet_points:
             continue
         for part in planar_parts(regions.normals, idx, p.min_facet_points, gen):
-            facets.extend(split_facet(arr, part, p, spacing_m=spacing, parent=r, rng=gen))
+            for layer in plane_layers(arr, part, p.min_facet_points):
+                facets.extend(split_facet(arr, layer, p, spacing_m=spacing, parent=r, rng=gen))
     # strips of boarding, floor or wall: the surface goes on past the band's edges
     wide = wide_surface_bands(tree, arr, facets)
     barrier_idx = [f.index for f, w in zip(facets, wide, strict=True) if w]
@@ -265,6 +392,10 @@ def segment_beams(
     tol = p.surface_tolerance_m
     if tol is None:
         tol = max(3.0 * float(np.median(rms)) if rms else 0.0, 0.01)
+    if p.one_face:
+        cuboids, facet_beam = add_one_face_beams(
+            arr, tree, facets, facet_beam, cuboids, p, bin_m, tol, free
+        )
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
         claimed[f.index] = g

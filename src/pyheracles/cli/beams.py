@@ -21,10 +21,16 @@ _HELP = "\n\n".join(
         "bands (beam width measured automatically), facets are grouped into beams by shared "
         "edges and parallel axes, and each beam gets an oriented cuboid (axis, length, width, "
         "height, RMS). Points near no cuboid stay in the remainder (instance 0).",
+        "The frame as a structure: joints between the beams (which meet, where, type L, T, X, "
+        "lap or foot), the connected components (beams joined to no frame are flagged "
+        "'loose'), a role per beam guessed from geometry (tie, rafter, common_rafter, post, "
+        "strut, collar, purlin, ridge, plate, brace) and per beam its deflection (largest "
+        "deviation of the scanned centre line from straight, mm) and twist (degrees).",
         "Writes into OUTDIR: segmented.laz (all points in input order, extra dimensions "
         "instance and class_id; class 'beam'), objects.csv (one row per beam: axis, "
-        "inclination, length, width, height, RMS), beams.png (plan and elevations of the beams "
-        "and their cuboids) and run.json (parameters, inputs, timings, counts).",
+        "inclination, length, width, height, RMS, role, in_frame, deflection_mm, twist_deg), "
+        "frame.json (members, joints, components), beams.png (plan and elevations of the "
+        "beams and their cuboids) and run.json (parameters, inputs, timings, counts).",
         "Examples:",
         "  heracles beams roof.laz -o out/beams",
         "  heracles beams roof.e57 --angle 10 --min-width 0.06 -o out/beams --force",
@@ -101,12 +107,19 @@ def register(app: typer.Typer) -> None:
         ifc: Annotated[
             bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")
         ] = False,
+        no_frame: Annotated[
+            bool,
+            typer.Option(
+                "--no-frame", help="Skip joints, roles, deflection and twist (no frame.json)."
+            ),
+        ] = False,
         force: Annotated[
             bool, typer.Option("--force", help="Write into a non-empty output folder.")
         ] = False,
     ) -> None:
         from pyheracles import progress
         from pyheracles.beams import BeamParams, segment_beams
+        from pyheracles.beams.frame import analyse_frame
         from pyheracles.cli.common import (
             console,
             output_dir,
@@ -116,6 +129,7 @@ def register(app: typer.Typer) -> None:
             write_model_ifc,
         )
         from pyheracles.io import read_cloud
+        from pyheracles.io.atomic import atomic_write_json
         from pyheracles.io.results import write_segmentation
         from pyheracles.segment.regiongrow import RegionGrowingParams
 
@@ -136,9 +150,20 @@ def register(app: typer.Typer) -> None:
             with progress.stage("beams: facets, bands, cuboids"):
                 result = segment_beams(cloud, params)
             timings["beams"] = time.perf_counter() - t
+            frame = None
+            if not no_frame:
+                t = time.perf_counter()
+                with progress.stage("frame: joints, roles, deflection, twist"):
+                    frame = analyse_frame(cloud.xyz, result)
+                timings["frame"] = time.perf_counter() - t
             t = time.perf_counter()
-            with progress.stage("writing segmented.laz, objects, beams.png"):
+            with progress.stage("writing segmented.laz, objects, frame.json, beams.png"):
                 seg = result.to_segmentation(cloud.offset)
+                extra = {"n_beams": len(result.beams)}
+                if frame is not None:
+                    for name, column in frame.member_columns().items():
+                        seg.objects[name] = column
+                    extra.update(n_joints=len(frame.joints), n_in_frame=int(frame.in_frame.sum()))
                 paths = write_segmentation(
                     cloud,
                     seg,
@@ -147,8 +172,13 @@ def register(app: typer.Typer) -> None:
                     parameters=result.params,
                     inputs=[cloud_path],
                     timings={**timings, **{f"beams.{k}": v for k, v in result.timings.items()}},
-                    extra={"n_beams": len(result.beams)},
+                    extra=extra,
                 )
+                if frame is not None:
+                    paths["frame"] = atomic_write_json(
+                        stage / "frame.json",
+                        frame.to_json(result, cloud.offset, n_points=len(cloud.xyz)),
+                    )
                 if not no_picture:
                     paths["picture"] = plot_beams(cloud.xyz, result, stage / "beams.png")
             if ifc:
@@ -157,9 +187,9 @@ def register(app: typer.Typer) -> None:
             timings["write"] = time.perf_counter() - t
             counts = seg.counts()
             print_run_warnings(stage)
-        print_objects(
-            seg.objects,
-            ["instance", "n_points", "inclination_deg", "length_m", "width_m", "height_m", "rms_m"],
-        )
+        columns = ["instance", "n_points", "inclination_deg", "length_m", "width_m", "height_m"]
+        columns += ["role", "deflection_mm", "twist_deg"] if frame is not None else ["rms_m"]
+        print_objects(seg.objects, columns)
         print_counts(counts, timings, {k: outdir / v.name for k, v in paths.items()})
-        console.print(f"{len(result.beams)} beams written to {outdir}")
+        joints = "" if frame is None else f", {len(frame.joints)} joints"
+        console.print(f"{len(result.beams)} beams{joints} written to {outdir}")

@@ -40,6 +40,25 @@ from pyheracles.errors import InputError
 
 __all__ = ["IfcReport", "export_ifc", "export_ifc_folders", "radius_profile", "read_result_folder"]
 
+#: IFC 4 class and predefined type per member role of the frame analysis
+#: (:data:`pyheracles.beams.roles.ROLES`); loose timber is kept, as a plain member.
+ROLE_TO_IFC = {
+    "tie": ("IfcBeam", "BEAM"),
+    "ridge": ("IfcBeam", "BEAM"),
+    "rafter": ("IfcMember", "RAFTER"),
+    "common_rafter": ("IfcMember", "RAFTER"),
+    "post": ("IfcMember", "POST"),
+    "strut": ("IfcMember", "STRUT"),
+    "collar": ("IfcMember", "COLLAR"),
+    "purlin": ("IfcMember", "PURLIN"),
+    "plate": ("IfcMember", "PLATE"),
+    "brace": ("IfcMember", "BRACE"),
+    "loose": ("IfcMember", "MEMBER"),
+}
+#: Objects-table columns of the frame analysis copied into a member's property set.
+FRAME_FIELDS = ("role", "in_frame", "component", "n_joints", "deflection_mm", "twist_deg",
+                "height_measured")  # fmt: skip
+
 Array = np.ndarray
 
 
@@ -379,18 +398,24 @@ def _beams(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             xdir = cand if width >= height else other
         place = w.placement(centre - 0.5 * length * axis, axis, xdir)
         shape = w.shape([w.solid(w.rectangle(width, height), length)])
-        if incl <= 10.0:
+        role = str(r.get("role", ""))
+        if role in ROLE_TO_IFC:  # the frame analysis named it (heracles beams, frame.json)
+            cls, predefined = ROLE_TO_IFC[role]
+        elif incl <= 10.0:
             cls, predefined = "IfcBeam", "BEAM"
         elif incl >= 80.0:
             cls, predefined = "IfcMember", "POST"
         else:
             cls, predefined = "IfcMember", "BRACE"
         el = w.element(cls, f"beam {inst}", place, shape, predefined, container)
+        seen = r.get("faces_seen")
         w.pset(el, "Heracles_Provenance", {
             "instance": inst, "class": str(r["class"]), "n_points": int(r["n_points"]),
-            "fit_rms_m": float(r["rms_m"]), "faces_seen": int(r.get("n_facets", 0)),
+            "fit_rms_m": float(r["rms_m"]), "n_facets": int(r.get("n_facets", 0)),
+            "faces_seen": int(seen) if seen is not None and seen == seen and seen > 0 else None,
             "inclination_deg": incl, "length_m": length, "width_m": width,
             "height_m": height,
+            **{k: r[k] for k in FRAME_FIELDS if k in r.index},
         })  # fmt: skip
         rep.guids[inst] = el.GlobalId
         rep.elements[cls] = rep.elements.get(cls, 0) + 1

@@ -1,0 +1,311 @@
+"""The timber frame as a structure: joints, graph, roles, deflection and twist.
+
+:func:`analyse_frame` reads top-down from a :class:`~pyheracles.beams.model.BeamResult`:
+
+1. joints between the fitted cuboids (:func:`~pyheracles.beams.joints.find_joints`);
+2. the graph's connected components: a component of at least
+   ``min_frame_members`` beams (or the largest one) is the frame, and so is a
+   smaller one that rises above the frame's bottom (a couple of rafters, a tie
+   beam whose joints are hidden in the walls); timber lying below the frame's
+   bottom and joined to none of it (loose timber on the floor) is flagged as
+   not a member of the frame, and so is a beam
+   that only leans on it (one joint, at its upper half, its foot below the
+   frame's bottom: a ladder against a post) or lies under it touching it (one
+   joint, wholly below the frame's bottom: timber on the floor);
+3. a role per beam from orientation, height, place and joints
+   (:func:`~pyheracles.beams.roles.guess_roles`);
+4. per beam its deflection and twist from its own points
+   (:func:`~pyheracles.beams.deflection.member_shapes`).
+
+:meth:`FrameResult.to_json` is what ``heracles beams`` writes as ``frame.json``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pyheracles.beams.deflection import MemberShape, ShapeParams, member_shapes
+from pyheracles.beams.joints import Joint, JointParams, components, find_joints
+from pyheracles.beams.model import BeamCuboid, BeamResult
+from pyheracles.beams.roles import RoleParams, frame_levels, guess_roles
+from pyheracles.errors import InputError
+
+__all__ = ["FrameParams", "FrameResult", "analyse_frame"]
+
+
+@dataclass(frozen=True)
+class FrameParams:
+    """Parameters of the frame analysis.
+
+    Attributes
+    ----------
+    joints, roles, shape
+        :class:`JointParams`, :class:`RoleParams`, :class:`ShapeParams`.
+    min_frame_members
+        A connected component of at least this many beams is (part of) the
+        frame; the largest component always is; smaller ones are when they
+        rise above its bottom.
+    leaning_below_m
+        An inclined beam of the frame with one joint only, at its upper half,
+        whose lower end reaches this far below the frame's bottom (metres)
+        leans on the frame (a ladder, a prop stored against a post): not a
+        member.
+    plumb_deg
+        A beam at least this steep stands (a post on the floor), it does not
+        lean, degrees (ladders lean at 65-80 degrees).
+    """
+
+    joints: JointParams = field(default_factory=JointParams)
+    roles: RoleParams = field(default_factory=RoleParams)
+    shape: ShapeParams = field(default_factory=ShapeParams)
+    min_frame_members: int = 3
+    leaning_below_m: float = 0.3
+    plumb_deg: float = 85.0
+
+    def validate(self) -> FrameParams:
+        self.joints.validate()
+        self.roles.validate()
+        self.shape.validate()
+        if not 45 < self.plumb_deg <= 90:
+            raise InputError(f"plumb_deg must be in (45, 90], got {self.plumb_deg}")
+        if not 0 <= self.leaning_below_m <= 10:
+            raise InputError(
+                f"leaning_below_m must be in [0, 10] metres, got {self.leaning_below_m}"
+            )
+        if self.min_frame_members < 2:
+            raise InputError(f"min_frame_members must be >= 2, got {self.min_frame_members}")
+        return self
+
+
+@dataclass(frozen=True)
+class FrameResult:
+    """The frame's graph and its members' condition.
+
+    Attributes
+    ----------
+    joints
+        Every joint (:class:`~pyheracles.beams.joints.Joint`).
+    component
+        ``(B,)`` connected component per beam (1 = largest).
+    in_frame
+        ``(B,)`` whether each beam is a member of the frame.
+    roles
+        Role per beam (:data:`~pyheracles.beams.roles.ROLES`).
+    shapes
+        Deflection and twist per beam.
+    timings
+        Seconds per stage.
+    """
+
+    joints: tuple[Joint, ...]
+    component: NDArray[np.int32]
+    in_frame: NDArray[np.bool_]
+    roles: tuple[str, ...]
+    shapes: tuple[MemberShape, ...]
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def member_columns(self) -> dict[str, list[Any]]:
+        """Per-beam columns for the objects table (role, frame, deflection, twist)."""
+        return {
+            "role": list(self.roles),
+            "in_frame": [bool(v) for v in self.in_frame],
+            "component": [int(v) for v in self.component],
+            "n_joints": [
+                sum(i + 1 in jt.members for jt in self.joints) for i in range(len(self.roles))
+            ],
+            "deflection_mm": [_mm(s.deflection_m) for s in self.shapes],
+            "twist_deg": [_round(s.twist_deg, 2) for s in self.shapes],
+        }
+
+    def to_json(
+        self, result: BeamResult, offset: ArrayLike | None = None, n_points: int | None = None
+    ) -> dict[str, Any]:
+        """The frame as a JSON-ready dict (coordinates with ``offset`` added; NaN -> null)."""
+        off = np.zeros(3) if offset is None else np.asarray(offset, dtype=np.float64)
+        counts = np.bincount(result.labels, minlength=len(result.beams) + 1)
+        members = []
+        for i, (b, s) in enumerate(zip(result.beams, self.shapes, strict=True)):
+            members.append(
+                {
+                    "id": i + 1,
+                    "role": self.roles[i],
+                    "in_frame": bool(self.in_frame[i]),
+                    "component": int(self.component[i]),
+                    "centre": _xyz(b.centre + off),
+                    "axis": [round(float(v), 6) for v in b.axis],
+                    "ends": [
+                        _xyz(b.centre + off - 0.5 * b.length * b.axis),
+                        _xyz(b.centre + off + 0.5 * b.length * b.axis),
+                    ],
+                    "length_m": round(b.length, 4),
+                    "width_m": round(b.width, 4),
+                    "height_m": round(b.height, 4),
+                    "inclination_deg": round(
+                        math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))), 2
+                    ),
+                    "n_points": int(counts[i + 1]),
+                    "deflection_mm": _mm(s.deflection_m),
+                    "deflection_direction": [round(float(v), 4) for v in s.direction],
+                    "max_deviation_mm": _mm(s.deviation_m),
+                    "centreline_rms_mm": _mm(s.centreline_rms_m),
+                    "twist_deg": _round(s.twist_deg, 2),
+                    "measured_length_m": _round(s.measured_length_m, 3),
+                    "shape_note": s.note,
+                    "joints": [k + 1 for k, jt in enumerate(self.joints) if i + 1 in jt.members],
+                }
+            )
+        joints = [
+            {
+                "id": k + 1,
+                "members": list(jt.members),
+                "type": jt.type,
+                "point": _xyz(jt.point + off),
+                "axis_distance_m": round(jt.distance_m, 4),
+                "at": [round(v, 4) for v in jt.at],
+            }
+            for k, jt in enumerate(self.joints)
+        ]
+        comps = []
+        for c in range(1, int(self.component.max(initial=0)) + 1):
+            ids = (np.flatnonzero(self.component == c) + 1).tolist()
+            comps.append({"id": c, "members": ids, "in_frame": bool(self.in_frame[ids[0] - 1])})
+        by_type: dict[str, int] = {}
+        for jt in self.joints:
+            by_type[jt.type] = by_type.get(jt.type, 0) + 1
+        by_role: dict[str, int] = {}
+        for r in self.roles:
+            by_role[r] = by_role.get(r, 0) + 1
+        return {
+            "units": {"length": "m", "deflection": "mm", "angle": "deg"},
+            "n_points": n_points,
+            "n_members": len(members),
+            "n_in_frame": int(self.in_frame.sum()),
+            "n_joints": len(joints),
+            "joints_by_type": by_type,
+            "members_by_role": by_role,
+            "members": members,
+            "joints": joints,
+            "components": comps,
+        }
+
+
+def _round(v: float, nd: int) -> float | None:
+    return None if not math.isfinite(v) else round(float(v), nd)
+
+
+def _mm(v: float) -> float | None:
+    return None if not math.isfinite(v) else round(1000.0 * float(v), 1)
+
+
+def _xyz(v: NDArray[np.float64]) -> list[float]:
+    return [round(float(x), 4) for x in v]
+
+
+def _half_height(b: BeamCuboid) -> float:
+    return 0.5 * float(np.abs(b.axes[2]) @ [b.length, b.width, b.height])
+
+
+def leaning(
+    beams: list[BeamCuboid], joints: list[Joint], in_frame: NDArray[np.bool_], p: FrameParams
+) -> NDArray[np.bool_]:
+    """Beams that lean on the frame, or lie below it touching it, rather than belong to it.
+
+    One joint only, not plumb, and either its upper half on the frame with its foot
+    ``leaning_below_m`` below the frame's bottom (a ladder), or wholly lower than one
+    section under the frame's bottom (a timber on the floor against a post's foot).
+    """
+    out = np.zeros(len(beams), bool)
+    if not in_frame.any():
+        return out
+    for i, b in enumerate(beams):
+        mine = [jt for jt in joints if i + 1 in jt.members]
+        plumb = np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) >= p.plumb_deg
+        if not in_frame[i] or len(mine) != 1 or plumb:  # posts stand plumb, ladders lean
+            continue
+        jt = mine[0]
+        at = jt.at[jt.members.index(i + 1)]
+        low_end = 0.0 if b.axis[2] >= 0 else 1.0  # parameter of the lower end
+        lowest = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        rest = in_frame.copy()
+        rest[i] = False  # the frame's bottom without this beam
+        if not rest.any():
+            continue
+        bottom, _ = frame_levels(beams, rest, p.roles)
+        top = float(b.centre[2]) + _half_height(b)
+        leans = abs(at - low_end) > 0.5 and lowest < bottom - p.leaning_below_m
+        lies = top < bottom - max(b.width, b.height)  # on the floor, touching the frame
+        out[i] = leans or lies
+    return out
+
+
+def analyse_frame(
+    xyz: ArrayLike, result: BeamResult, params: FrameParams | None = None
+) -> FrameResult:
+    """Joints, graph, roles, deflection and twist of the beams of ``result``.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` the coordinates ``result`` was computed on, metres (local frame).
+    result
+        Output of :func:`~pyheracles.beams.segment_beams` on ``xyz``.
+    params
+        :class:`FrameParams`.
+
+    Returns
+    -------
+    FrameResult
+        Empty joints and components for a result without beams.
+
+    Raises
+    ------
+    InputError
+        ``xyz`` and ``result.labels`` of different lengths.
+    """
+    p = (params or FrameParams()).validate()
+    arr = np.asarray(xyz, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 3 or len(arr) != len(result.labels):
+        raise InputError(
+            f"the cloud has shape {arr.shape} but the beam labels cover {len(result.labels)} "
+            "points; give the cloud the beams were segmented on"
+        )
+    beams = list(result.beams)
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    joints = find_joints(beams, p.joints)
+    comp = components(len(beams), joints)
+    sizes = np.bincount(comp, minlength=2)
+    core = (sizes[comp] >= p.min_frame_members) | (comp == 1)
+    if len(beams) and sizes[1] < 2:  # no joint anywhere: nothing holds together
+        core[:] = False
+    core &= ~leaning(beams, joints, core, p)
+    in_frame = core.copy()
+    if core.any():
+        # a small group counts when it reaches the frame's bottom (a couple of rafters,
+        # a tie whose joints are hidden in the walls: its top within one section of
+        # the bottom); timber lying lower is loose
+        bottom, _ = frame_levels(beams, core, p.roles)
+        for c in np.unique(comp[(~core) & (sizes[comp] < p.min_frame_members)]):
+            ids = np.flatnonzero(comp == c)
+            top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
+            section = max(max(beams[i].width, beams[i].height) for i in ids)
+            in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
+    roles = guess_roles(beams, joints, in_frame, p.roles)
+    timings["joints_roles"] = time.perf_counter() - t
+    t = time.perf_counter()
+    shapes = member_shapes(arr, result.labels, beams, p.shape)
+    timings["deflection"] = time.perf_counter() - t
+    return FrameResult(
+        joints=tuple(joints),
+        component=comp,
+        in_frame=in_frame,
+        roles=tuple(roles),
+        shapes=tuple(shapes),
+        timings=timings,
+    )
