@@ -1,0 +1,128 @@
+"""Faces: vertical planes of the detection sample and all their input points."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pyheracles.walls.model import Array, WallParams
+from pyheracles.walls.planes import fit_vertical, grid_components, plane_frame
+
+__all__ = ["face_points", "find_faces"]
+
+
+def find_faces(
+    xyz: Array, sample: NDArray[np.int64], normals: Array, p: WallParams
+) -> list[tuple[Array, float, NDArray[np.int64]]]:
+    """Faces on the sample: (normal, d, sample-point indices into ``xyz``)."""
+    nz_max = math.sin(math.radians(p.max_tilt_deg))
+    cand = np.flatnonzero(np.abs(normals[:, 2]) <= nz_max)
+    if len(cand) < 3:
+        return []
+    pts = xyz[sample[cand]]
+    nrm = normals[cand]
+    theta = np.mod(np.arctan2(nrm[:, 1], nrm[:, 0]), np.pi)
+    h = np.c_[np.cos(theta), np.sin(theta)]
+    off = np.einsum("ij,ij->i", pts[:, :2], h)
+    alive = np.ones(len(cand), dtype=bool)
+    cos_n = math.cos(math.radians(p.normal_angle_deg))
+    spacing = p.voxel_m or 0.06
+    min_pts = max(30, int(0.25 * p.min_area_m2 / spacing**2))
+    faces: list[tuple[Array, float, NDArray[np.int64]]] = []
+    dbin = 2 * p.distance_m
+    lo, hi = off.min() - dbin, off.max() + dbin
+    abins = np.linspace(0, np.pi, 181)
+    dbins = np.arange(lo, hi + dbin, dbin)
+    for _ in range(200):
+        idx = np.flatnonzero(alive)
+        if len(idx) < min_pts:
+            break
+        hist, _, _ = np.histogram2d(theta[idx], off[idx], bins=(abins, dbins))
+        # neighbouring bins together (azimuth wraps at 180 deg)
+        from scipy import ndimage
+
+        smooth = ndimage.uniform_filter(hist, size=3, mode=("wrap", "constant")) * 9
+        a, b = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
+        if smooth[a, b] < min_pts:
+            break
+        t0 = 0.5 * (abins[a] + abins[a + 1])
+        d0 = 0.5 * (dbins[b] + dbins[b + 1])
+        dt = np.abs(np.angle(np.exp(2j * (theta[idx] - t0)))) / 2
+        seed = idx[(dt <= math.radians(2.0)) & (np.abs(off[idx] - d0) <= 1.5 * dbin)]
+        # the bin may sit across the wrap at 0/180 deg: flip the offsets of the far side
+        if len(seed) < 3:
+            alive[idx[(dt <= math.radians(1.0)) & (np.abs(off[idx] - d0) <= dbin)]] = False
+            continue
+        n, d, _ = fit_vertical(pts[seed])
+        inl = seed
+        for _ in range(3):
+            dist = np.abs(pts[idx] @ n - d)
+            ok = (dist <= p.distance_m) & (np.abs(nrm[idx] @ n) >= cos_n)
+            inl = idx[ok]
+            if len(inl) < 3:
+                break
+            n, d, _ = fit_vertical(pts[inl])
+        alive[seed] = False
+        if len(inl) < min_pts:
+            continue
+        alive[inl] = False
+        if abs(n[2]) > nz_max:
+            continue
+        # split into connected parts along the plane
+        origin, u = plane_frame(n, d)
+        q = pts[inl] - origin
+        uz = np.c_[q @ u, q[:, 2]]
+        cell = 0.2
+        ij = np.floor((uz - uz.min(axis=0)) / cell).astype(np.int64)
+        grid = np.zeros(ij.max(axis=0) + 1, dtype=bool)
+        grid[ij[:, 0], ij[:, 1]] = True
+        lab, k = grid_components(grid, 2)
+        plab = lab[ij[:, 0], ij[:, 1]]
+        for c in range(1, k + 1):
+            part = inl[plab == c]
+            if len(part) < min_pts:
+                continue
+            puz = uz[plab == c]
+            length, height = np.ptp(puz[:, 0]), np.ptp(puz[:, 1])
+            comp = lab == c
+            area = np.count_nonzero(comp) * cell**2
+            if length < p.min_length_m or height < p.min_height_m or area < p.min_area_m2:
+                continue
+            # a wall is solid over most of its length: rows of pew ends, railings are not
+            col_h = comp.sum(axis=1)[comp.any(axis=1)] * cell
+            if np.mean(col_h >= p.min_height_m) < 0.5:
+                continue
+            faces.append((n, d, sample[cand[part]]))
+    return faces
+
+
+def face_points(
+    xyz: Array, n: Array, d: float, seeds: NDArray[np.int64], p: WallParams
+) -> NDArray[np.int64]:
+    """All input points of a face: near its plane and within its seeds' footprint."""
+    origin, u = plane_frame(n, d)
+    sq = xyz[seeds] - origin
+    suz = np.c_[sq @ u, sq[:, 2]]
+    lo = suz.min(axis=0) - p.cell_m
+    hi = suz.max(axis=0) + p.cell_m
+    box = np.all((xyz >= np.minimum(xyz[seeds].min(axis=0), xyz[seeds].max(axis=0))
+                  - p.distance_m - 0.1), axis=1)  # fmt: skip
+    box &= np.all(xyz <= xyz[seeds].max(axis=0) + p.distance_m + 0.1, axis=1)
+    idx = np.flatnonzero(box)
+    idx = idx[np.abs(xyz[idx] @ n - d) <= p.distance_m]
+    q = xyz[idx] - origin
+    uz = np.c_[q @ u, q[:, 2]]
+    inside = np.all((uz >= lo) & (uz <= hi), axis=1)
+    idx, uz = idx[inside], uz[inside]
+    cell = max(2 * (p.voxel_m or 0.06), p.cell_m)
+    ij = np.floor((suz - lo) / cell).astype(np.int64)
+    shape = np.floor((hi - lo) / cell).astype(np.int64) + 2
+    from scipy import ndimage
+
+    grid = np.zeros(shape, dtype=bool)
+    grid[ij[:, 0], ij[:, 1]] = True
+    grid = ndimage.binary_dilation(grid, iterations=1)
+    pij = np.clip(np.floor((uz - lo) / cell).astype(np.int64), 0, shape - 1)
+    return idx[grid[pij[:, 0], pij[:, 1]]]

@@ -1,0 +1,181 @@
+"""Openings: edges refined from the face points, lights of one window merged."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pyheracles.walls.model import Array, Opening
+
+__all__ = ["face_edges", "head_sill", "merge_lights", "refine_edges"]
+
+
+def merge_lights(openings: list[Opening], max_mullion_m: float,
+                 min_overlap: float = 0.6) -> list[Opening]:  # fmt: skip
+    """Openings separated by a mullion or transom no wider than ``max_mullion_m``, as one.
+
+    Two windows merge when the gap between their boxes along one axis is at most
+    ``max_mullion_m`` and they overlap along the other by ``min_overlap`` of the
+    smaller one (lights of one window share their sill and springing).  The merged
+    outline is the union of the lights closed over the gap (the mullions belong to
+    the window).  Doors are left alone.
+    """
+    import shapely
+
+    wins = [o for o in openings if o.kind == "window"]
+    rest = [o for o in openings if o.kind != "window"]
+    if max_mullion_m <= 0 or len(wins) < 2:
+        return openings
+    parent = list(range(len(wins)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def overlap(a0: float, a1: float, b0: float, b1: float) -> float:
+        return max(0.0, min(a1, b1) - max(a0, b0)) / max(min(a1 - a0, b1 - b0), 1e-9)
+
+    for i, a in enumerate(wins):
+        for j in range(i + 1, len(wins)):
+            b = wins[j]
+            gap_u = max(a.u_min, b.u_min) - min(a.u_max, b.u_max)
+            gap_z = max(a.z_min, b.z_min) - min(a.z_max, b.z_max)
+            side = 0 <= gap_u <= max_mullion_m and overlap(a.z_min, a.z_max, b.z_min,
+                                                            b.z_max) >= min_overlap
+            stacked = 0 <= gap_z <= max_mullion_m and overlap(a.u_min, a.u_max, b.u_min,
+                                                               b.u_max) >= min_overlap
+            if side or stacked:
+                parent[root(j)] = root(i)
+    groups: dict[int, list[Opening]] = {}
+    for i, o in enumerate(wins):
+        groups.setdefault(root(i), []).append(o)
+    merged = []
+    for g in groups.values():
+        if len(g) == 1:
+            merged.append(g[0])
+            continue
+        half = max_mullion_m / 2 + 1e-3
+        union = shapely.union_all([shapely.Polygon(o.polygon).buffer(0) for o in g])
+        closed = union.buffer(half, join_style="mitre").buffer(-half, join_style="mitre")
+        if closed.geom_type != "Polygon":  # not bridged: the boxes' hull
+            closed = shapely.convex_hull(union)
+        ring = np.asarray(closed.exterior.coords)[:-1]
+        merged.append(Opening("window", min(o.u_min for o in g), max(o.u_max for o in g),
+                              min(o.z_min for o in g), max(o.z_max for o in g), ring,
+                              sum(o.n_lights for o in g)))  # fmt: skip
+    return sorted([*merged, *rest], key=lambda o: (o.u_min, o.z_min))
+
+
+def refine_edges(
+    uz: Array, face_of: NDArray[np.int64], u0: float, u1: float, z0: float, z1: float,
+    c: float, at_foot: bool, jambs: tuple[float, float] | None = None,
+) -> tuple[float, float, float, float]:
+    """Edges of an opening from the face points around it (finer than the grid).
+
+    Each face is measured on its own (see :func:`face_edges`), at its own point
+    spacing, and the opening through the wall is where all faces are open: the
+    innermost jambs, the lowest head and the highest sill of the faces measured (a
+    reveal splayed towards one face widens that face's opening only).  A measured edge
+    is a correction of the grid's, within two cells of it (points of a mullion or a
+    transom inside a hole the grid did not split are no edge of it); an edge nothing
+    measures keeps the grid's value.
+    """
+    found = np.array([face_edges(uz[face_of == f], u0, u1, z0, z1, c, at_foot, jambs)
+                      for f in np.unique(face_of)]).reshape(-1, 4)  # fmt: skip
+    grid = (u0, u1, z0, z1)
+    out = []
+    for k, pick in enumerate((np.max, np.min, np.max, np.min)):
+        col = found[:, k][np.isfinite(found[:, k])]
+        col = col[np.abs(col - grid[k]) <= 2 * c]  # a correction of the grid, no more
+        out.append(float(pick(col)) if len(col) else grid[k])
+    return out[0], out[1], out[2], out[3]
+
+
+def face_edges(
+    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, at_foot: bool,
+    jambs: tuple[float, float] | None = None,
+) -> tuple[float, float, float, float]:
+    """Edges of an opening from the points of one face around it (NaN: not measured).
+
+    The jambs are the nearest points left and right of the centre along the jambs
+    (``jambs``: the heights where the opening has its full width; default its upper
+    part): per row the innermost point, then a high order statistic over the rows.  Rows and the
+    columns of :func:`head_sill` are as tall (wide) as the face's local point spacing
+    and at least a quarter cell, so that a sparse face is not read between its points.
+    """
+    nan = float("nan")
+    if len(uz) < 10:
+        return nan, nan, nan, nan
+    cells = np.unique(np.floor(uz / c).astype(np.int64), axis=0)
+    step = max(0.25 * c, 1.5 * float(np.sqrt(len(cells) * c * c / len(uz))))
+    h = z1 - z0
+    uc = 0.5 * (u0 + u1)
+    lo_z = z1 - 0.45 * h if at_foot else z0 + 0.25 * h
+    hi_z = z1 - 0.1 * h
+    r0 = r1 = nan
+    if jambs is not None:
+        lo_z = max(lo_z, jambs[0]) if at_foot else max(z0 + 0.05 * h, jambs[0])
+        hi_z = min(hi_z, jambs[1])
+    if hi_z - lo_z >= 2 * c or jambs is None:  # too short a band: the grid edges stand
+        band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < hi_z)
+        left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c)]
+        right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c)]
+        if len(left) >= 5 and len(right) >= 5:
+            row = max(c, step)
+            r0, r1 = _row_innermost(left, row, np.maximum), _row_innermost(right, row, np.minimum)
+    m0, m1 = (u0, u1) if np.isnan(r0) else (r0, r1)
+    s0, s1 = head_sill(uz, m0, m1, z0, z1, c, step, at_foot)
+    return r0, r1, s0, s1
+
+
+def _row_innermost(uz: Array, c: float, innermost: np.ufunc) -> float:
+    """The jamb from the innermost ``u`` of each row of height ``c``: its 90th (left,
+    ``np.maximum``) or 10th (right) percentile over the rows.  No face point lies
+    inside the opening, so each row's innermost point is at the jamb or short of it
+    (by up to the point spacing on a sparse face): a high order statistic, not the
+    median, is the edge; the last tenth allows for a few stray points."""
+    rows = np.floor(uz[:, 1] / c).astype(np.int64)
+    order = np.argsort(rows, kind="stable")
+    r, u = rows[order], uz[order, 0]
+    starts = np.flatnonzero(np.r_[True, np.diff(r) != 0])
+    q = 90 if innermost is np.maximum else 10
+    return float(np.percentile(innermost.reduceat(u, starts), q))
+
+
+def head_sill(
+    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, step: float,
+    at_foot: bool,
+) -> tuple[float, float]:
+    """Sill and head of an opening from one face's points below and above its centre
+    (NaN: not measured).
+
+    The head is the highest of the lowest points of the columns (``step`` wide, each
+    the lowest of it and its two neighbours) across the central band, no higher than a
+    cell above the grid's head: a pointed or round
+    head peaks at its centre, and the lowest point of the whole band lies on its
+    flanks, short of the apex.  The sill is the median over the columns of their
+    highest point below the centre (mixed pixels standing on a sill, on the plane,
+    move it little; doors reaching the wall's foot are not measured there).
+    """
+    nan = float("nan")
+    uc, zc, w = 0.5 * (u0 + u1), 0.5 * (z0 + z1), u1 - u0
+    band_u = np.abs(uz[:, 0] - uc) < max(0.05 * w, c, step)
+    up = band_u & (uz[:, 1] > zc) & (uz[:, 1] < z1 + 2 * c)
+    down = band_u & (uz[:, 1] < zc) & (uz[:, 1] > z0 - 2 * c)
+    head = sill = nan
+    if np.count_nonzero(up) >= 3:
+        col = np.floor(uz[up, 0] / step).astype(np.int64)
+        order = np.lexsort((uz[up, 1], col))
+        first = np.flatnonzero(np.r_[True, np.diff(col[order]) != 0])
+        low = uz[up, 1][order][first]
+        if len(low) >= 3:  # lower envelope over three columns: a sparse column's
+            low = np.minimum(np.minimum(low[:-2], low[1:-1]), low[2:])  # lowest is high
+        head = min(float(low.max()), z1 + c)
+    if not at_foot and np.count_nonzero(down) >= 3:
+        col = np.floor(uz[down, 0] / step).astype(np.int64)
+        order = np.lexsort((-uz[down, 1], col))
+        first = np.flatnonzero(np.r_[True, np.diff(col[order]) != 0])
+        sill = float(np.median(uz[down, 1][order][first]))
+    return sill, head

@@ -1,0 +1,201 @@
+"""Outlines: the envelope of a wall on its plane and the enclosed holes that are openings."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pyheracles.walls.model import Array, Opening, WallParams
+from pyheracles.walls.openings import merge_lights, refine_edges
+
+__all__ = ["mask_polygon", "occupancy", "simplify_ring", "wall_outline"]
+
+
+def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
+              face_of: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:  # fmt: skip
+    """Cells of the wall plane covered by its faces, small gaps closed.
+
+    A cell is covered when it holds a face point.  Each face (``face_of``; one face
+    when omitted) is closed on its own, as the two faces of a wall are often scanned
+    at very different densities (inside from near, outside from afar), by a
+    morphological closing (square: a scan-line gap across a mullion one cell wide is
+    bridged) whose size follows the face's local point density: one cell where its
+    covered cells around (0.3 m) hold two points or more on average, two cells where
+    they hold fewer (a grazing or distant scan whose lines are a cell or more apart).
+    Openings are at least a few cells across and stay open.  The wall is covered where
+    any of its faces is.
+    """
+    from scipy import ndimage
+
+    faces = np.zeros(len(ij), dtype=np.int64) if face_of is None else face_of
+    square = np.ones((3, 3), dtype=bool)
+    out = np.zeros(shape, dtype=bool)
+    for f in np.unique(faces):
+        sel = faces == f
+        cnt = np.zeros(shape, dtype=np.float64)
+        np.add.at(cnt, (ij[sel, 0], ij[sel, 1]), 1.0)
+        occ = cnt > 0
+        size = 7  # cells: 0.3 m at 5 cm
+        pts = ndimage.uniform_filter(cnt, size=size, mode="constant")
+        covered = ndimage.uniform_filter(occ.astype(np.float64), size=size, mode="constant")
+        sparse = pts < 2.0 * np.maximum(covered, 1e-9)
+        one = ndimage.binary_closing(occ, structure=square, iterations=1, border_value=0)
+        two = ndimage.binary_closing(occ, structure=square, iterations=2, border_value=0)
+        out |= occ | np.where(sparse, two, one)
+    return out
+
+
+def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.bool_],
+                 uz_all: Array,
+                 near: NDArray[np.bool_], behind: NDArray[np.bool_], front: NDArray[np.bool_],
+                 p: WallParams) -> tuple[Array, list[Opening], tuple[float, float],
+                                         tuple[float, float]]:  # fmt: skip
+    """Envelope and openings of one wall from its face points ``w_uz`` (``(u, z)``).
+
+    ``face_of`` gives the face of each point (its own foot decides what is a door);
+    ``on_plane`` marks the points close enough to their face's plane to set the edges
+    of openings (mixed pixels, off the plane, do not);
+    ``uz_all`` are the detection sample's points on the plane, with the masks of those
+    ``near`` the wall, ``behind`` its face(s) (inside the wall or beyond a lone face)
+    and in ``front`` of it.
+    """
+    from scipy import ndimage
+
+    c = p.cell_m
+    lo = w_uz.min(axis=0)
+    ij = np.floor((w_uz - lo) / c).astype(np.int64)
+    shape = tuple(ij.max(axis=0) + 1)
+    occ = occupancy(ij, shape, face_of)
+    cols = np.flatnonzero(occ.any(axis=1))
+    nu = shape[0]
+    bot = _foot(occ, c)
+    top = np.where(occ, np.arange(shape[1])[None, :], -1).max(axis=1)
+    keep = np.zeros(nu, dtype=bool)
+    keep[cols.min() : cols.max() + 1] = True
+    have = occ.any(axis=1)
+    idx = np.arange(nu)
+    top = np.interp(idx, idx[have], top[have]).round().astype(int)
+    top = ndimage.maximum_filter1d(top, max(1, round(0.3 / c)), mode="nearest")
+    rows = np.arange(shape[1])[None, :]
+    env = keep[:, None] & (rows >= bot[:, None]) & (rows <= top[:, None])
+    holes = env & ~occ
+    lab, k = ndimage.label(holes)
+    openings: list[Opening] = []
+    if k:
+        feet = []  # each face's own foot (floor inside, ground outside)
+        for f in np.unique(face_of):
+            fo = np.zeros(shape, dtype=bool)
+            fo[ij[face_of == f, 0], ij[face_of == f, 1]] = True
+            feet.append(_foot(fo, c))
+        step = max(2, int(np.ceil(p.door_step_m / c)) + 1)
+        # points through the wall plane, on the grid
+        pij = np.floor((uz_all - lo) / c).astype(np.int64)
+        inside = np.all((pij >= 0) & (pij < shape), axis=1)
+        slices = ndimage.find_objects(lab)
+        for m, sl in enumerate(slices, start=1):
+            if sl is None:
+                continue
+            region = lab[sl] == m
+            w = (sl[0].stop - sl[0].start) * c
+            h = (sl[1].stop - sl[1].start) * c
+            if w < p.min_opening_m or h < p.min_opening_m:
+                continue
+            if region.sum() * c * c < p.min_opening_area_m2:
+                continue
+            if sl[0].start == 0 or sl[0].stop == nu or sl[1].stop >= shape[1]:
+                continue  # open to the wall's end or top: not enclosed
+            at_foot = bool(np.any(sl[1].start <= bot[sl[0]] + 1))
+            on_floor = at_foot or any(
+                sl[1].start <= np.median(ft[sl[0]]) + step for ft in feet
+            )
+            grown = ndimage.binary_dilation(lab == m, iterations=1)
+            z_lo = sl[1].start + (2 if on_floor else 0)
+            sel = np.zeros(len(uz_all), dtype=bool)
+            sel[inside] = grown[pij[inside, 0], pij[inside, 1]] & (pij[inside, 1] >= z_lo)
+            n_behind = int(np.count_nonzero(sel & behind & near))
+            n_front = int(np.count_nonzero(sel & front & near))
+            if n_behind < 3 or n_behind < 0.5 * n_front:
+                continue  # a shadow: what is seen through it stands in front of the wall
+            u0, u1 = lo[0] + sl[0].start * c, lo[0] + sl[0].stop * c
+            z0, z1 = lo[1] + sl[1].start * c, lo[1] + sl[1].stop * c
+            # the jambs: rows where the hole is (nearly) at its full width, below any
+            # round or pointed head (refining the sides in the head narrowed such windows)
+            # (doors keep their upper part: shadows merged at the foot widen them)
+            # (the full width: the 75th percentile of the rows' widths, as a few rows
+            # widened by a shadow or a gap at the foot would narrow the band to them)
+            widths = region.sum(axis=0)
+            full = np.flatnonzero(widths >= np.percentile(widths, 75) - 1)
+            jambs = None if at_foot else (lo[1] + (sl[1].start + full.min()) * c,
+                                          lo[1] + (sl[1].start + full.max() + 1) * c)  # fmt: skip
+            local = _edge_points(ij, on_plane, sl, region)
+            u0, u1, z0, z1 = refine_edges(w_uz[local], face_of[local], u0, u1, z0, z1, c,
+                                          at_foot, jambs)  # fmt: skip
+            poly = mask_polygon(region, lo + np.array([sl[0].start, sl[1].start]) * c, c)
+            openings.append(Opening("door" if on_floor else "window", float(u0), float(u1),
+                                    float(z0), float(z1), poly))  # fmt: skip
+    openings = merge_lights(openings, p.max_mullion_m)
+    a, b = int(cols.min()), int(cols.max()) + 1
+    us = lo[0] + np.arange(a, b + 1) * c
+    tz = lo[1] + (top[np.r_[a:b, b - 1]] + 1) * c
+    bz = lo[1] + bot[np.r_[a:b, b - 1]] * c
+    outline = np.r_[np.c_[us, bz], np.c_[us[::-1], tz[::-1]]]
+    outline = simplify_ring(outline, c)
+    return outline, openings, (float(us[0]), float(us[-1])), (float(bz.min()), float(tz.max()))
+
+
+def _foot(occ: NDArray[np.bool_], c: float) -> NDArray[np.int64]:
+    """Lowest covered row per column, across empty columns from their neighbours, and
+    the lowest within 2.5 m (a door or an occluder does not lift the foot)."""
+    from scipy import ndimage
+
+    nz = occ.shape[1]
+    bot = np.where(occ, np.arange(nz)[None, :], nz).min(axis=1)
+    have = occ.any(axis=1)
+    if not have.any():
+        return np.full(occ.shape[0], nz, dtype=np.int64)
+    idx = np.arange(occ.shape[0])
+    bot = np.interp(idx, idx[have], bot[have]).round().astype(np.int64)
+    return ndimage.minimum_filter1d(bot, max(3, round(2.5 / c)), mode="nearest")
+
+
+def _edge_points(ij: NDArray[np.int64], on_plane: NDArray[np.bool_], sl: tuple[slice, ...],
+                 region: NDArray[np.bool_], margin: int = 3) -> NDArray[np.int64]:  # fmt: skip
+    """Indices of the face points around one opening, without the stray ones inside it.
+
+    Points of cells enclosed by the opening (returns of glass or leaves, mixed pixels
+    within ``distance_m`` of the plane) would set its edges inside it; the opening
+    with its islands filled is where no edge can be.
+    """
+    from scipy import ndimage
+
+    filled = ndimage.binary_fill_holes(region)
+    a0, b0 = sl[0].start - margin, sl[1].start - margin
+    box = on_plane & ((ij[:, 0] >= a0) & (ij[:, 0] < sl[0].stop + margin)
+           & (ij[:, 1] >= b0) & (ij[:, 1] < sl[1].stop + margin))  # fmt: skip
+    sel = np.flatnonzero(box)
+    li, lj = ij[sel, 0] - sl[0].start, ij[sel, 1] - sl[1].start
+    inr = (li >= 0) & (li < region.shape[0]) & (lj >= 0) & (lj < region.shape[1])
+    stray = np.zeros(len(sel), dtype=bool)
+    stray[inr] = filled[li[inr], lj[inr]]
+    return sel[~stray]
+
+
+def simplify_ring(ring: Array, tol: float) -> Array:
+    import shapely
+
+    poly = shapely.Polygon(ring).buffer(0)
+    if poly.geom_type != "Polygon":
+        poly = max(poly.geoms, key=lambda g: g.area)
+    poly = poly.simplify(tol, preserve_topology=True)
+    return np.asarray(poly.exterior.coords)[:-1]
+
+
+def mask_polygon(region: NDArray[np.bool_], origin: Array, c: float) -> Array:
+    """Outline ``(K, 2)`` of a boolean grid region (cells of size ``c`` from ``origin``)."""
+    import rasterio.features
+    import shapely
+
+    shapes = [shapely.geometry.shape(g) for g, v in
+              rasterio.features.shapes(region.T.astype(np.uint8), mask=region.T) if v]  # fmt: skip
+    poly = max(shapes, key=lambda g: g.area).simplify(0.5, preserve_topology=True)
+    return np.asarray(poly.exterior.coords)[:-1] * c + origin

@@ -1,0 +1,105 @@
+"""Pairing: the two faces of one wall, faces inside a wall, the side of a lone face."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from pyheracles.walls.model import Array, WallFace, WallParams
+from pyheracles.walls.planes import plane_frame
+
+__all__ = ["material_side", "pair_faces"]
+
+
+def pair_faces(xyz: Array, faces: list[WallFace], p: WallParams) -> list[tuple[int, ...]]:
+    """Groups of face indices: pairs forming one wall, singles.
+
+    Two parallel faces a wall thickness apart are candidates when they are seen over the
+    same stretch of wall: at least half of the smaller face's cells on the plane (a grid
+    of ``max(2 cell_m, 0.1 m)``) are cells of the other too.  Glass and door leaves
+    recessed in the openings of a face lie in its holes and share few cells with it.
+    Candidates are taken in decreasing shared area (not by separation: a face of the
+    panes of a row of windows is nearer the outer face than the inner face is), and a
+    face lying between the two faces of a chosen pair over their extent is inside that
+    wall (glass, leaves, reveals): it is no wall face and is left out of every group.
+    """
+    cos_par = math.cos(math.radians(p.parallel_deg))
+    cell = max(2 * p.cell_m, 0.1)
+    cands = []
+    for i in range(len(faces)):
+        for j in range(i + 1, len(faces)):
+            fi, fj = faces[i], faces[j]
+            c = float(fi.normal @ fj.normal)
+            if abs(c) < cos_par:
+                continue
+            s = math.copysign(1.0, c)
+            sep = abs(fi.d - s * fj.d)
+            if not p.min_thickness_m <= sep <= p.max_thickness_m:
+                continue
+            _, u = plane_frame(fi.normal, fi.d)
+            ci, cj = _cells(xyz[fi.indices], u, cell), _cells(xyz[fj.indices], u, cell)
+            shared = len(np.intersect1d(ci, cj, assume_unique=True))
+            if shared < 0.5 * min(len(ci), len(cj)):
+                continue
+            cands.append((-shared, sep, i, j))
+    cands.sort()
+    used: set[int] = set()
+    groups: list[tuple[int, ...]] = []
+    for _, _, i, j in cands:
+        if i in used or j in used:
+            continue
+        used |= {i, j}
+        groups.append((i, j))
+    inner = {k for k in range(len(faces)) if k not in used
+             and any(_between(xyz, faces, k, g, cos_par, p) for g in groups)}  # fmt: skip
+    groups += [(i,) for i in range(len(faces)) if i not in used and i not in inner]
+    return groups
+
+
+def _cells(pts: Array, u: Array, cell: float) -> np.ndarray:
+    """Sorted unique keys of the ``(u, z)`` cells holding points."""
+    iu = np.floor(pts @ u / cell).astype(np.int64)
+    iz = np.floor(pts[:, 2] / cell).astype(np.int64)
+    return np.unique(iu * (1 << 32) + iz)
+
+
+def _between(xyz: Array, faces: list[WallFace], k: int, pair: tuple[int, ...],
+             cos_par: float, p: WallParams) -> bool:  # fmt: skip
+    """Whether face ``k`` lies between the two faces of ``pair`` (beyond ``distance_m``
+    of both) and within their extent along the wall (most of its length and height)."""
+    fk, fa, fb = faces[k], faces[pair[0]], faces[pair[1]]
+    n = fa.normal
+    if abs(float(n @ fk.normal)) < cos_par:
+        return False
+    da = fa.d
+    db = fb.d * math.copysign(1.0, float(n @ fb.normal))
+    dk = fk.d * math.copysign(1.0, float(n @ fk.normal))
+    if not min(da, db) + p.distance_m < dk < max(da, db) - p.distance_m:
+        return False
+    _, u = plane_frame(n, da)
+    pk = xyz[fk.indices]
+    pw = xyz[np.r_[fa.indices, fb.indices]]
+    uk, uw = pk @ u, pw @ u
+    inside = ((uk >= uw.min()) & (uk <= uw.max()) & (pk[:, 2] >= pw[:, 2].min())
+              & (pk[:, 2] <= pw[:, 2].max()))  # fmt: skip
+    return bool(np.mean(inside) >= 0.5)
+
+
+def material_side(xyz: Array, tree: Any, face: WallFace, p: WallParams) -> int:
+    """Side (+1/-1 along the face normal) where the wall's material lies, for a lone face:
+    the floor or ground runs up to the foot of a face on the seen side only."""
+    pts = xyz[face.indices]
+    z0 = np.percentile(pts[:, 2], 1)
+    foot = pts[pts[:, 2] <= z0 + 0.3]
+    if len(foot) > 400:
+        foot = foot[np.linspace(0, len(foot) - 1, 400).astype(np.int64)]
+    counts = []
+    for s in (1.0, -1.0):
+        probe = foot + s * 0.25 * face.normal
+        probe[:, 2] = z0
+        counts.append(sum(len(v) for v in tree.query_ball_point(probe, 0.12)))
+    if counts[0] == counts[1]:
+        return 0
+    return -1 if counts[0] > counts[1] else 1  # material away from the floor
