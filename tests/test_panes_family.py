@@ -47,7 +47,9 @@ def _error_at_interior(sim, cloud, T) -> float:
     return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
 
 
-@pytest.mark.parametrize("seed", [0, 2])
+# 22 and 26: exterior outlines seen in part and single lights of mullioned windows
+# (before: refused as contradicted)
+@pytest.mark.parametrize("seed", [0, 2, 22, 26])
 def test_draws_that_failed_now_register(seed: int) -> None:
     sim, clouds, tp, res = _register(seed)
     assert tp.details["n_matched_openings"] >= 5
@@ -61,9 +63,13 @@ def test_draws_that_failed_now_register(seed: int) -> None:
     assert np.median(np.linalg.norm(a - b, axis=1)) < 0.01
 
 
-def test_a_sparse_exterior_is_refused() -> None:
+@pytest.mark.parametrize("seed", [4, 15, 24])
+def test_a_transform_is_right_or_refused(seed: int) -> None:
+    """Seed 4: too few exterior points on the openings; 15: exterior outlines reduced to
+    jambs (a pane can slide along them: once returned 13 cm off); 24: three openings on
+    one wall, one with a reveal depth 5 cm short (once returned 5 cm off)."""
     try:
-        sim, clouds, _tp, res = _register(4)
+        sim, clouds, _tp, res = _register(seed)
     except InputError as exc:
         assert "no trustworthy match" in str(exc) or "disagree" in str(exc)
         return

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -124,6 +126,58 @@ def test_windows_of_different_sizes_are_matched() -> None:
         m.T_target_source[:3, 3] - T_TRUE[:3, 3]
     )
     assert np.abs(err).max() < 0.003
+
+
+def test_partial_outlines_and_single_lights_are_matched() -> None:
+    """One viewer misses reveals (half outlines) and sees one light of a mullioned window.
+
+    A partial outline lies on its partner's full one and agrees; a single light facing
+    a whole window agrees where it shares the window's jamb, head and sill, and where
+    it cannot be compared it must not count against the solution.
+    """
+    rng = np.random.default_rng(7)
+    widths = rng.uniform(0.8, 1.4, 5)
+    heights = rng.uniform(2.0, 3.5, 5)
+    src = _church(widths, heights, rng)
+    tgt = []
+    for k, o in enumerate(src):
+        m = _moved(o, T_TRUE, rng)
+        rel = m.outline - m.centre
+        if k % 3 == 0:  # this viewer sees only the upper part of one jamb and of the head
+            keep = (rel @ m.h < 0) & (rel @ m.v > 0)
+            m = replace(m, outline=m.outline[keep], outline_normal=m.outline_normal[keep])
+        elif k in (1, 5, 8):  # a mullion splits the opening: this viewer finds one light
+            light = _opening(o.centre - 0.3 * o.width * o.h, o.normal, 0.4 * o.width,
+                             o.height, rng, face=o.face)  # fmt: skip
+            m = _moved(light, T_TRUE, rng)
+        tgt.append(m)
+    m = match_openings(src, tgt)
+    assert isinstance(m, OpeningMatch), m
+    assert len(m.pairs) >= 6
+    assert m.n_contradicted == 0
+    assert sum(k % 3 == 0 for k in m.pairs[:, 0]) >= 3  # the partial outlines do
+    probe = np.array([[0.0, 0, 0], [15.0, 10, 6]])
+    err = probe @ (m.T_target_source[:3, :3] - T_TRUE[:3, :3]).T + (
+        m.T_target_source[:3, 3] - T_TRUE[:3, 3]
+    )
+    assert np.abs(err).max() < 0.005
+
+
+def test_jambs_alone_do_not_verify_an_opening() -> None:
+    """An outline reduced to its two jambs agrees at any height: it gives no tie."""
+    rng = np.random.default_rng(8)
+    src = _church(rng.uniform(0.8, 1.4, 5), rng.uniform(2.0, 3.5, 5), rng)
+    tgt = []
+    for k, o in enumerate(src):
+        m = _moved(o, T_TRUE, rng)
+        if k in (0, 3, 6):
+            keep = np.abs((m.outline - m.centre) @ m.v) < 0.3 * o.height
+            m = replace(m, outline=m.outline[keep], outline_normal=m.outline_normal[keep])
+        tgt.append(m)
+    m = match_openings(src, tgt)
+    assert isinstance(m, OpeningMatch), m
+    assert not set(m.pairs[:, 0].tolist()) & {0, 3, 6}
+    assert len(m.pairs) >= 5
 
 
 @pytest.mark.slow

@@ -15,7 +15,7 @@ with numpy/scipy because Open3D is only a benchmark extra of pyheracles:
   angles are taken, so the descriptor does not depend on the arbitrary sign of
   a PCA normal (scans seen from different sides, no known scanner position).
   The histograms are accumulated by a compiled kernel
-  (:mod:`pyheracles.registration._fpfh_kernels`, numba).
+  (:mod:`pyheracles.registration.fpfh_kernels`, numba).
 """
 
 from __future__ import annotations
@@ -163,7 +163,7 @@ def fpfh_descriptors(
     dist, nb = tr.query(xyz, k=k, distance_upper_bound=radius, workers=-1)
     dist = dist.reshape(n, k)
     nb = nb.reshape(n, k)
-    from pyheracles.registration._fpfh_kernels import fpfh_kernel, spfh_kernel
+    from pyheracles.registration.fpfh_kernels import fpfh_kernel, spfh_kernel
 
     xyz_c = np.ascontiguousarray(xyz, dtype=np.float64)
     nrm_c = np.ascontiguousarray(normals, dtype=np.float64)

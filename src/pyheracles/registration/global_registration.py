@@ -16,10 +16,12 @@ rotation and translation.  The pipeline (Rusu et al. 2009; Zhou, Park & Koltun
 4. **Robust estimation.**  Pairwise length-consistency graph and graph-guided
    RANSAC (:mod:`~pyheracles.registration.consensus`): survives 95-99 % wrong
    matches; several distinct hypotheses are kept.
-5. **Verification.**  Every hypothesis is refined by a short point-to-plane ICP
-   on the *full* clouds and scored by the share of source points within a fine
-   gate (3 x spacing) of the target; the best is refined by the full
-   robust (Tukey) ICP of :mod:`~pyheracles.registration.icp`.
+5. **Verification.**  The hypothesis of the best coarse overlap and *every*
+   hypothesis of a different pose whose consensus is beyond chance are refined by a
+   short point-to-plane ICP on the *full* clouds and scored by the share of source
+   points within a fine gate (3 x spacing) of the target; the best-scoring one is
+   refined by the full robust (Tukey) ICP of :mod:`~pyheracles.registration.icp`,
+   the best score among the rivals still distinct after refinement sets the margin.
 6. **Decision.**  The result is accepted only when the overlap share, the
    consensus (against the clique size expected by chance), the geometric
    conditioning of the overlap (the six motions must all be constrained) and
@@ -44,9 +46,7 @@ from pyheracles.errors import EstimationError, InputError
 from pyheracles.geometry.neighbours import point_spacing
 from pyheracles.registration.consensus import (
     ConsensusParams,
-    RigidHypothesis,
     robust_rigid,
-    rotation_angle_deg,
 )
 from pyheracles.registration.features import (
     choose_voxel,
@@ -118,6 +118,14 @@ class GlobalRegistrationParams:
         Multiples of ``target_points`` tried in turn until one is accepted (with
         ``voxel_m`` given: that voxel only).  Large scenes (a building rather than an
         object) need finer voxels than 5 000 per cloud to keep their details.
+    rival_significance
+        Every hypothesis of a different pose whose consensus is at least this multiple
+        of the clique size expected by chance is refined and compared with the chosen
+        one (symmetric or repeated structure gives several such poses; the chosen pose
+        must beat every one of them by ``min_margin``).
+    same_pose_voxels
+        Two poses are one when they move the source's points by at most this many
+        voxels (RMS): closer hypotheses are variants of one pose, not rivals.
     rival_share
         ``"ambiguous"`` when a different pose (sharing less than half of its matches
         with the chosen one) has at least this share of the chosen pose's consistent
@@ -143,6 +151,8 @@ class GlobalRegistrationParams:
     min_conditioning: float = 0.01
     min_margin: float = 0.5
     rival_share: float = 0.5
+    rival_significance: float = 2.0
+    same_pose_voxels: float = 2.0
     finer_retries: tuple[float, ...] = (1.0, 4.0)
     seed: int = 0
 
@@ -157,6 +167,8 @@ class GlobalRegistrationParams:
             raise InputError(f"min_overlap must be in (0, 1), got {self.min_overlap}")
         if not self.finer_retries or min(self.finer_retries) <= 0:
             raise InputError("finer_retries must be a non-empty list of positive multiples")
+        if not (self.rival_significance > 0 and self.same_pose_voxels > 0):
+            raise InputError("rival_significance and same_pose_voxels must be positive")
         if self.hypotheses < 1 or self.max_correspondences < 3:
             raise InputError("hypotheses must be >= 1 and max_correspondences >= 3")
 
@@ -334,6 +346,15 @@ def _world(
     return T
 
 
+def _same_pose(
+    Ta: NDArray[np.float64], Tb: NDArray[np.float64], pts: NDArray[np.float64], max_m: float
+) -> bool:
+    """Whether two world transforms are one pose: the RMS displacement between them of
+    ``pts`` (where the data are, world) is at most ``max_m`` metres."""
+    move = pts @ (Ta[:3, :3] - Tb[:3, :3]).T + (Ta[:3, 3] - Tb[:3, 3])
+    return bool(np.sqrt(np.mean(np.sum(move**2, axis=1))) <= max_m)
+
+
 def _shares(
     src: PointCloud,
     tgt: PointCloud,
@@ -485,15 +506,18 @@ def _attempt(
         for h in hyps:
             d, _ = tree_dt.query(ds @ h.R.T + h.t, k=1, distance_upper_bound=voxel, workers=-1)
             coarse.append(float(np.isfinite(d).mean()))
-        order = np.argsort(coarse, kind="stable")[::-1]
-        h_best = hyps[order[0]]
-        c_s = ds.mean(axis=0)  # translations compared where the data are
-        rivals = [
-            hyps[q]
+        order = [int(q) for q in np.argsort(coarse, kind="stable")[::-1]]
+        # poses compared where the data are: RMS displacement of the source's voxels
+        where = ds[:: max(1, len(ds) // 2000)] + src.offset
+        distinct_m = p.same_pose_voxels * voxel
+        T_hyp = [_world(h.R, h.t, src.offset, tgt.offset) for h in hyps]
+        # every different pose whose own consensus is beyond chance is a rival
+        chance = p.rival_significance * max(null, 1.0)
+        rival_q = [
+            q
             for q in order[1:]
-            if rotation_angle_deg(hyps[q].R, h_best.R) > cp.distinct_deg
-            or np.linalg.norm(hyps[q].R @ c_s + hyps[q].t - h_best.R @ c_s - h_best.t)
-            > 5.0 * cp.inlier_m
+            if hyps[q].n_inliers >= chance
+            and not _same_pose(T_hyp[q], T_hyp[order[0]], where, distinct_m)
         ]
         tree_t = cKDTree(tgt.xyz, balanced_tree=False, compact_nodes=False)
         tree_s = cKDTree(src.xyz, balanced_tree=False, compact_nodes=False)
@@ -505,51 +529,54 @@ def _attempt(
         quick = replace(fine, samples=(2_000, 8_000), iterations_per_level=10,
                         evaluation_samples=20_000)  # fmt: skip
 
-        def refine(h: RigidHypothesis, prm: ICPParams) -> tuple[float, Any]:
-            T0 = _world(h.R, h.t, src.offset, tgt.offset)
+        def refine(T0: NDArray[np.float64], prm: ICPParams) -> tuple[float, Any]:
             try:
                 r = icp(src, tgt, T0, prm, target_tree=tree_t)
             except (InputError, EstimationError):
                 return 0.0, None
             return r.overlap_fraction, r
 
-        second, second_inliers = 0.0, (rivals[0].n_inliers if rivals else 0)
-        if rivals:
-            # best and rival refined alike, so that their overlaps compare fairly
-            s1, r1 = refine(h_best, quick)
-            s2, r2 = refine(rivals[0], quick)
-            same_pose = (
-                r1 is not None
-                and r2 is not None
-                and rotation_angle_deg(r1.T_target_source[:3, :3], r2.T_target_source[:3, :3])
-                <= cp.distinct_deg
-                and np.linalg.norm(
-                    (r1.T_target_source[:3, :3] - r2.T_target_source[:3, :3]) @ (c_s + src.offset)
-                    + r1.T_target_source[:3, 3]
-                    - r2.T_target_source[:3, 3]
-                )
-                <= 5.0 * cp.inlier_m
-            )
-            if s2 > s1 and not same_pose:  # the rival fits better: it wins
-                h_best, rivals[0] = rivals[0], h_best
-                s1, s2 = s2, s1
-                second_inliers = rivals[0].n_inliers
-            second = 0.0 if same_pose else s2
-            quick_best = s1
-        best_score, final_icp = refine(h_best, fine)
-        if rivals:
-            best_score = quick_best  # the margin compares the two quick refinements
-        T = (
-            final_icp.T_target_source
-            if final_icp is not None
-            else _world(h_best.R, h_best.t, src.offset, tgt.offset)
-        )
+        win, second, second_inliers = order[0], 0.0, 0
+        best_q = order[0]  # the hypothesis whose quick score stands for the chosen pose
+        quick_score: dict[int, float] = {}
+        pose: dict[int, NDArray[np.float64]] = {}
+        rival_of: list[int] = []
+        # hypotheses of the chosen pose (variants of it, not rivals)
+        chosen = {
+            q for q in range(len(hyps)) if _same_pose(T_hyp[q], T_hyp[order[0]], where, distinct_m)
+        }
+        if rival_q:
+            # the best and every rival refined alike, so that their overlaps compare fairly
+            refined = {q: refine(T_hyp[q], quick) for q in [order[0], *rival_q]}
+            quick_score = {q: s for q, (s, _) in refined.items()}
+            pose = {
+                q: T_hyp[q] if r is None else r.T_target_source for q, (_, r) in refined.items()
+            }
+            best_q = max(refined, key=lambda q: refined[q][0])  # a better-fitting rival wins
+            # the refined hypotheses that converged onto the best-fitting pose are that pose
+            same = {q for q in refined if _same_pose(pose[q], pose[best_q], where, distinct_m)}
+            chosen = same | chosen if order[0] in same else same
+            # the pose is represented by its hypothesis of the largest consensus
+            win = max(same, key=lambda q: (hyps[q].n_inliers, refined[q][0]))
+            rival_of = [q for q in refined if q not in same]
+            if rival_of:
+                top = max(rival_of, key=lambda q: refined[q][0])
+                second, second_inliers = refined[top][0], hyps[top].n_inliers
+        h_best = hyps[win]
+        # the full refinement starts from the best-fitting quick refinement of the pose
+        # (ICP from another hypothesis of it may stop in a neighbouring local minimum)
+        start = pose[best_q] if rival_q else T_hyp[win]
+        best_score, final_icp = refine(start, fine)
+        if rival_q:
+            best_score = quick_score[best_q]  # the margin compares the quick refinements
+        T = final_icp.T_target_source if final_icp is not None else start
         ov_s, ov_t, pts, nrm = _shares(src, tgt, T, gate, tree_t, tree_s, rng)
     timings["verification"] = time.perf_counter() - t0
     hyp_report = [
         {"inliers": h.n_inliers, "samples_supporting": h.n_samples_supporting,
-         "coarse_overlap": c, "chosen": h is h_best, "rival": bool(rivals) and h is rivals[0]}
-        for h, c in zip(hyps, coarse, strict=True)
+         "coarse_overlap": c, "quick_overlap": quick_score.get(q), "chosen": q == win,
+         "rival": q in rival_of}
+        for q, (h, c) in enumerate(zip(hyps, coarse, strict=True))
     ]  # fmt: skip
     # the larger of the two shares: a small cloud inside a large one overlaps fully
     overlap = max(ov_s, ov_t)
@@ -559,11 +586,11 @@ def _attempt(
     margin = 1.0 - second / best_score if best_score > 0 else 0.0
     # does the consensus stand out against the best different pose?
     stands_out = inliers >= p.min_significance * max(null, second_inliers, 1.0)
-    # the strongest different pose by its own matches (one sharing most of its matches
-    # with the chosen pose is a variant of it, not a rival)
+    # the strongest different pose by its own matches (a hypothesis of the chosen pose,
+    # or one sharing most of its matches with it, is a variant of it, not a rival)
     rival_inliers = max(
-        [h.n_inliers for h in hyps
-         if h is not h_best and (h.inliers & h_best.inliers).sum() < 0.5 * h.n_inliers],
+        [h.n_inliers for q, h in enumerate(hyps)
+         if q not in chosen and (h.inliers & h_best.inliers).sum() < 0.5 * h.n_inliers],
         default=0,
     )  # fmt: skip
     rival_strong = rival_inliers >= max(
@@ -588,9 +615,7 @@ def _attempt(
             f"two different poses are each supported by many consistent matches ({inliers} "
             f"and {rival_inliers}): symmetric or repeated structure"
         )
-    elif margin < p.min_margin and (
-        not stands_out or second_inliers >= p.min_significance * null
-    ):
+    elif margin < p.min_margin and (not stands_out or second_inliers >= p.min_significance * null):
         status = "ambiguous"
         reason = (
             f"no pose stands out: {inliers} consistent matches against {second_inliers} for a "

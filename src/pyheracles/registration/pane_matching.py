@@ -15,7 +15,11 @@ window (thesis ch. 3, Murtiyoso 2020):
 4. **Fine fit** - point-to-line least squares of the pane mid-plane outlines with the
    pane depths, for the best hypotheses; the outlines decide between a true solution
    and a one-bay shift (neighbouring windows differ by centimetres in size or shape).
-   A runner-up explaining nearly as many openings is refused as ambiguous.
+   An outline seen only in part (a reveal hidden from one viewer) is compared where it
+   lies on its partner's; outlines of one size that disagree, or cannot be compared,
+   contradict the solution, while a single light of a mullioned window facing the
+   whole window does not.  A runner-up explaining nearly as many openings is refused
+   as ambiguous.
 5. **Tie points** - per matched opening a local in-plane fit of its outline and its
    pane depth gives four outline points (left, right, bottom, top of the mid-plane
    outline) in both frames, for the usual robust similarity and its report.
@@ -74,6 +78,15 @@ class MatchParams:
         least ``min_openings``) makes the solution ambiguous.
     max_outline_points
         Outline points per opening used in the fine fit (regular subsample).
+    min_outline_spread
+        An outline comparison verifies an opening only when its in-plane normals fix
+        both directions: the smaller eigenvalue of their 2 x 2 second-moment matrix is
+        at least this (about 0.5 for a square, 0.15 for a 1 x 3 light, 0 for two jambs);
+        otherwise the opening is unverified (neither agrees nor contradicts).
+    depth_weight, reveal_depth_weight
+        Weight (in outline points) of an opening's pane depth in the fine fit; the second
+        for a depth from where a reveal ends (a sparse reveal may stop short of the
+        glass) when other pairs have depths from glass points on both sides.
     max_contradiction
         A hypothesis is refused when more openings contradict it (mapped onto a
         partner whose outline disagrees) than this share of those that agree.
@@ -96,6 +109,9 @@ class MatchParams:
     min_openings: int = 3
     ambiguity_ratio: float = 0.8
     max_outline_points: int = 400
+    min_outline_spread: float = 0.05
+    depth_weight: float = 30.0
+    reveal_depth_weight: float = 3.0
     max_tilt_deg: float = 10.0
     max_contradiction: float = 0.5
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
@@ -223,6 +239,21 @@ def _cliques(A: NDArray[np.bool_], n_seeds: int = 60) -> list[NDArray[np.int_]]:
     return out
 
 
+def _sizes_fit(a: Array, b: Array, p: MatchParams) -> NDArray[np.bool_]:
+    """Whether (width, height) pairs ``a`` and ``b`` (broadcast) are of one size."""
+    tol = p.size_tolerance_m + p.size_tolerance_rel * np.maximum(a, b)
+    return np.all(np.abs(a - b) <= tol, axis=-1)
+
+
+def _size_compatible(S, Tg, pairs, p: MatchParams) -> NDArray[np.bool_]:
+    """Per pair (source, target): whether the two openings are of one size."""
+    if len(pairs) == 0:
+        return np.zeros(0, bool)
+    a = np.array([[S[i].width, S[i].height] for i in pairs[:, 0]])
+    b = np.array([[Tg[j].width, Tg[j].height] for j in pairs[:, 1]])
+    return _sizes_fit(a, b, p)
+
+
 def _explained(S, Tg, T, p: MatchParams) -> NDArray[np.int_]:
     """Pairs (source, target) whose centres and normals agree under ``T``."""
     cs = np.array([o.centre for o in S]) @ T[:3, :3].T + T[:3, 3]
@@ -241,6 +272,17 @@ def _explained(S, Tg, T, p: MatchParams) -> NDArray[np.int_]:
     return pairs[np.sort(np.array(keep, dtype=int))] if keep else pairs[:0]
 
 
+def _glass_depths(S, Tg, pairs) -> NDArray[np.bool_]:
+    """Per pair: whether its pane depths are of the most certain kind present.
+
+    A depth from glass points on both sides is more certain than one from where a
+    reveal ends (a sparse reveal may stop short of the glass); when no pair has glass
+    depths on both sides (photogrammetry sees no glass) all depths are alike.
+    """
+    glass = np.array([S[i].n_glass > 0 and Tg[j].n_glass > 0 for i, j in pairs], dtype=bool)
+    return glass if glass.any() else np.ones(len(pairs), dtype=bool)
+
+
 def _subsample(o: Opening, m: int) -> tuple[Array, Array]:
     step = max(1, len(o.outline) // m)
     return o.outline[::step], o.outline_normal[::step]
@@ -252,6 +294,8 @@ def _fine(S, Tg, pairs, T0, p: MatchParams):
     src = [_subsample(S[i], p.max_outline_points) for i in pairs[:, 0]]
     trees = [cKDTree(Tg[j].outline) for j in pairs[:, 1]]
     sgn = -1.0 if p.opposite_sides else 1.0
+    trusted = _glass_depths(S, Tg, pairs)
+    depth_w = np.where(trusted, p.depth_weight, p.reveal_depth_weight)
     for gate in p.fine_gates_m:  # coarse to fine correspondence gates
         for _ in range(6):
             rows_A, rows_b, rows_w = [], [], []
@@ -267,12 +311,13 @@ def _fine(S, Tg, pairs, T0, p: MatchParams):
                     rows_A.append(np.hstack([np.cross(x, n), n]))
                     rows_b.append(-np.einsum("ij,ij->i", x - q, n))
                     rows_w.append(np.full(ok.sum(), 1.0))
-                # pane depth: the mapped centre on the partner's mid-plane (worth 30 points)
+                # pane depth: the mapped centre on the partner's mid-plane; a depth from
+                # where the reveals end (no glass points) is the less certain one
                 c = R @ S[i].centre + t
                 n = sgn * Tg[j].normal
                 rows_A.append(np.hstack([np.cross(c, n), n])[None, :])
                 rows_b.append(np.array([-(c - Tg[j].centre) @ n]))
-                rows_w.append(np.array([30.0]))
+                rows_w.append(np.array([depth_w[k]]))
             if not rows_A:
                 break
             A = np.vstack(rows_A)
@@ -303,35 +348,58 @@ def _rotvec(w: Array) -> Array:
 
 
 def _agreement(S, Tg, pairs, T, p: MatchParams):
-    """Per pair: median and RMS point-to-line distance of the outline, local transform."""
+    """Per pair: median and RMS point-to-line distance of the outline, local transform.
+
+    ``inf``: the outlines cannot be compared (too little of them within the gate);
+    ``nan``: the compared part does not fix both in-plane directions (unverified).
+    """
     sgn = -1.0 if p.opposite_sides else 1.0
     med, rms, local = [], [], []
     R, t = T[:3, :3], T[:3, 3]
     gate = p.fine_gates_m[-1] * 2
-    for i, j in pairs:  # tens of openings
-        P, _ = _subsample(S[i], p.max_outline_points)
+    trusted = _glass_depths(S, Tg, pairs)
+    for k, (i, j) in enumerate(pairs):  # tens of openings
+        P, Pn = _subsample(S[i], p.max_outline_points)
         P = P @ R.T + t
-        tree = cKDTree(Tg[j].outline)
-        d, nb = tree.query(P, distance_upper_bound=gate)
+        Q = Tg[j].outline
+        d, nb = cKDTree(Q).query(P, distance_upper_bound=gate)
         ok = np.isfinite(d)
-        if ok.sum() < max(10, 0.3 * len(P)):
+        # one outline may be partial (a reveal hidden from that viewer): it must then lie
+        # on the other, so the correspondences are taken from the better-covered side
+        Qs = Q[:: max(1, len(Q) // p.max_outline_points)]
+        d2, nb2 = cKDTree(P).query(Qs, distance_upper_bound=gate)
+        ok2 = np.isfinite(d2)
+        share, share2 = ok.mean(), ok2.mean()
+        if max(share, share2) < 0.3 or max(ok.sum(), ok2.sum()) < 10:
             med.append(np.inf)
             rms.append(np.inf)
             local.append(T)
             continue
-        q = Tg[j].outline[nb[ok]]
-        n = Tg[j].outline_normal[nb[ok]]
-        r = np.einsum("ij,ij->i", P[ok] - q, n)
-        # local fit: in-plane translation and rotation about the pane normal + depth
+        if share >= share2:
+            x_pts, q, n = P[ok], Q[nb[ok]], Tg[j].outline_normal[nb[ok]]
+        else:  # target points on the mapped source outline, with its (mapped) normals
+            x_pts, q, n = P[nb2[ok2]], Qs[ok2], Pn[nb2[ok2]] @ R.T
+        r = np.einsum("ij,ij->i", x_pts - q, n)
         nz = sgn * Tg[j].normal
         h = Tg[j].h
         v = np.cross(nz, h)
+        # the compared part must fix both in-plane directions: two jambs alone let the
+        # pane slide up and down along them, and agree at any height (unverified)
+        nhv = np.column_stack([n @ h, n @ v])
+        if np.linalg.eigvalsh(nhv.T @ nhv / len(nhv))[0] < p.min_outline_spread:
+            med.append(np.nan)
+            rms.append(np.nan)
+            local.append(T)
+            continue
+        # local fit: in-plane translation and rotation about the pane normal + depth
         c = Tg[j].centre
-        rel = P[ok] - c
+        rel = x_pts - c
         A = np.column_stack([n @ h, n @ v, np.einsum("ij,ij->i", np.cross(nz, rel), n)])
         x, *_ = np.linalg.lstsq(A, -r, rcond=None)
         cm = R @ S[i].centre + t
-        dz = -(cm - c) @ nz
+        # the partner's depth corrects the global one only where it is of the most
+        # certain kind present (from glass on both sides when some pair has that)
+        dz = -(cm - c) @ nz if trusted[k] else 0.0
         r2 = r + A @ x
         med.append(float(np.median(np.abs(r2))))
         rms.append(float(np.sqrt(np.mean(r2**2))))
@@ -358,8 +426,7 @@ def match_openings(
         return f"{len(source)} and {len(target)} openings: at least {p.min_openings} needed"
     ws = np.array([[o.width, o.height] for o in source])
     wt = np.array([[o.width, o.height] for o in target])
-    tol = p.size_tolerance_m + p.size_tolerance_rel * np.maximum(ws[:, None, :], wt[None, :, :])
-    ok = np.all(np.abs(ws[:, None, :] - wt[None, :, :]) <= tol, axis=2)
+    ok = _sizes_fit(ws[:, None, :], wt[None, :, :], p)
     cand = np.argwhere(ok)
     if len(cand) < p.min_openings:
         return f"only {len(cand)} pairs of openings of compatible size"
@@ -371,10 +438,13 @@ def match_openings(
     tried: list[Array] = []
     n_contradicted = 0
     n_mirrored = 0
+    best_good = 0
     cbar = np.mean([o.centre for o in source], axis=0)
     up = np.asarray(p.up, float) / np.linalg.norm(p.up)
     cos_tilt = np.cos(np.deg2rad(p.max_tilt_deg))
     for cl in cliques:  # best cliques first, distinct transforms only
+        if len(tried) >= p.hypotheses and (results or len(tried) >= 5 * p.hypotheses):
+            break  # enough solutions compared (or nothing after many tries)
         pr = cand[cl]
         cs = np.array([source[i].centre for i in pr[:, 0]])
         ns = np.array([source[i].normal for i in pr[:, 0]])
@@ -394,18 +464,29 @@ def match_openings(
             continue
         T = _fine(source, target, pairs, T0, p)
         pairs = _explained(source, target, T, p)
+        if len(pairs) < p.min_openings:  # the fine fit left the arrangement
+            continue
         T = _fine(source, target, pairs, T, p)
+        if any(_same_pose(T, r[1], cbar, tol_m=0.02) for r in results):
+            continue  # another clique of a solution already found
         med, rms, local = _agreement(source, target, pairs, T, p)
         good = med < p.fine_tolerance_m
         # openings mapped onto a partner whose outline disagrees contradict the solution
-        # (a mirrored or shifted arrangement lands windows on windows of another size)
-        bad = int((~good).sum())
+        # (a mirrored or shifted arrangement lands windows on windows of another size);
+        # outlines too different to be compared contradict it only when the two openings
+        # are of one size (otherwise one cloud may hold a single light of a mullioned
+        # window the other sees whole: not a contradiction, nor a tie)
+        sizes_agree = _size_compatible(source, target, pairs, p)
+        bad = int((np.isfinite(med) & ~good).sum() + (np.isinf(med) & sizes_agree).sum())
         if bad > p.max_contradiction * good.sum():
             n_contradicted += 1
             continue
+        best_good = max(best_good, int(good.sum()))
+        if good.sum() < p.min_openings:
+            continue
         results.append((int(good.sum()), T, pairs[good], rms[good], local[good], len(cl), bad))
-        if len(tried) >= p.hypotheses:
-            break
+    if not results and best_good > 0:
+        return f"only {best_good} openings whose outlines agree (at least {p.min_openings} needed)"
     if not results:
         return (
             f"no hypothesis explains enough openings ({n_mirrored} mirrored, "

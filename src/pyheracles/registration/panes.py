@@ -20,7 +20,9 @@ glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
    glass thickness further.
 5. **Outline** - each reveal point slid along its tangent plane onto the mid-plane
    (a straight reveal projects, a splayed one is followed down to the glass); any
-   outline shape (rectangular, round-headed, pointed, leaded).
+   outline shape (rectangular, round-headed, pointed, leaded).  The opening's size and
+   centre span the outline and the glass points together (a reveal hidden from the
+   viewer leaves the outline partial, the glass still fills the opening).
 
 Assumptions (documented limits): the cloud is metric and roughly levelled (``up``
 within a few degrees of the vertical) and the glass thickness is known.
@@ -85,6 +87,10 @@ class PaneParams:
         Points of one opening's recess used at most (regularly thinned beyond).
     min_outline_points
         Reveal points taken for the outline at least (the band grows to hold them).
+    min_glass_extent_points
+        With at least this many glass points the opening's size and centre span both
+        the outline and the glass (a reveal hidden from the viewer leaves the outline
+        partial; the glass still fills the opening).
     up
         Vertical direction.
     """
@@ -111,6 +117,7 @@ class PaneParams:
     outline_band_m: float = 0.25
     max_recess_points: int = 20000
     min_outline_points: int = 300
+    min_glass_extent_points: int = 30
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
 
@@ -384,6 +391,15 @@ def _opening(
         return None
     lo_u, hi_u = np.percentile(ou, [1, 99])
     lo_v, hi_v = np.percentile(ov, [1, 99])
+    if at.sum() >= p.min_glass_extent_points:
+        # the glass fills the opening up to its reveals: where a reveal is hidden from
+        # the viewer (a jamb at a grazing angle, a sill seen from below) the glass still
+        # shows the opening's extent, so the size and centre come from both
+        gu, gv = pts[at] @ h, pts[at] @ v
+        glo_u, ghi_u = np.percentile(gu, [1, 99])
+        glo_v, ghi_v = np.percentile(gv, [1, 99])
+        lo_u, hi_u = min(lo_u, glo_u), max(hi_u, ghi_u)
+        lo_v, hi_v = min(lo_v, glo_v), max(hi_v, ghi_v)
     w, hgt = hi_u - lo_u, hi_v - lo_v
     if w < p.min_width_m or hgt < p.min_height_m:
         return None
