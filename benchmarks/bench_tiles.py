@@ -347,7 +347,11 @@ def tiled_run(source: Path, layers: dict, out: Path, workers: int | None,
               kill_after: int | None = None) -> dict:  # fmt: skip
     """One tiled run with its workers' memory sampled; with ``kill_after``, one worker
     SIGKILLed mid-way (Dask retries its task elsewhere) and, if a tile failed for good,
-    the same call again on the same folder (a resume)."""
+    the same call again on the same folder (a resume).  ``out`` is emptied first: a folder
+    left by an earlier invocation would be resumed, its finished tiles skipped and timed."""
+    import shutil
+
+    shutil.rmtree(out, ignore_errors=True)
     load0 = os.getloadavg()
     with Watch(out / ".work", kill_after) as w:
         res = run_tiles(source, layers, out, workers=workers)

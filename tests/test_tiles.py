@@ -19,8 +19,16 @@ from pyheracles.errors import InputError
 from pyheracles.io import read_cloud, read_layer
 from pyheracles.tiles import assign_owners, read_catalog, run_tiles, split_las
 from pyheracles.tiles.catalog import read_points
+from pyheracles.tiles.plan import city_noise
 from pyheracles.tiles.runner import boxes_meeting
-from pyheracles.tiles.worker import BUFFER_DIMS, StripJob, buffer_points, strip_tile
+from pyheracles.tiles.worker import (
+    BUFFER_DIMS,
+    StripJob,
+    buffer_points,
+    own_path,
+    own_points,
+    strip_tile,
+)
 
 RD = "EPSG:28992"
 X0, Y0 = 85_000.0, 447_000.0
@@ -148,7 +156,51 @@ def test_buffer_from_a_strip_is_the_direct_read_else_falls_back(
         assert got[2].keys() == want[2].keys()
         for k in want[2]:
             np.testing.assert_array_equal(got[2][k], want[2][k])
+    # the tile's own points, kept for its phase 1: every point, in file order
+    got, want = own_points(other, tmp_path), read_points(other.path, None, BUFFER_DIMS)
+    assert own_path(tmp_path, other.name).is_file()
+    for a, b in zip(got[:2], want[:2], strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert got[2].keys() == want[2].keys()
+    for k in want[2]:
+        np.testing.assert_array_equal(got[2][k], want[2][k])
     assert strip_tile(StripJob(other, boxes, tmp_path))["skipped"]  # resumed
+
+
+def test_city_noise_carried_forward_is_the_rerun_of_the_passes(scene: dict) -> None:
+    """city_noise carries each tile's ground from pass to pass; the noise of every pass
+    is, bit for bit, the one of the definition: pass k's ground by refine_ground run for
+    k passes with the city's noise so far, pass k + 1's surface built from it."""
+    from pyheracles.cloud import PointCloud
+    from pyheracles.ground import SceneMeasures, aligned_grid, auto_params
+    from pyheracles.groundfilters.refine import refine_ground
+    from pyheracles.groundfilters.smrf import smrf
+    from pyheracles.groundfilters.surface import RasterSampler
+
+    catalog = read_catalog(scene["tiles"][0].parent)
+    params = auto_params(SceneMeasures(0.5, float("nan"), 20.0))
+    got = city_noise(catalog, params)
+    clouds = [PointCloud.from_world(read_points(t.path, None, ())[0]) for t in catalog.tiles]
+    sigmas: list[float] = []
+    for k in range(params.refine.iterations):
+        pooled = []
+        for cloud in clouds:
+            xy = cloud.xyz[:, :2]
+            grid = aligned_grid(xy, params.seed.cell_m, cloud.offset[:2])
+            sampler = RasterSampler(grid, xy, dtype=np.float32)
+            seeds = smrf(cloud.xyz, params.seed, sampler=sampler)[0]
+            before = seeds
+            if k:
+                fixed = replace(params.refine, iterations=k, sigma_m=tuple(sigmas))
+                before = refine_ground(cloud.xyz, seeds, fixed, sampler=sampler)[0]
+            step = replace(params.refine, iterations=k + 1, sigma_m=(*sigmas, 0.0))
+            dtm = refine_ground(cloud.xyz, seeds, step, sampler=sampler)[1]
+            z = cloud.xyz[before, 2]
+            pooled.append((z - RasterSampler(grid, xy[before])(dtm.z_m)).astype(np.float32))
+        r = np.concatenate(pooled)
+        sigmas.append(float(1.4826 * np.median(np.abs(r - np.median(r)))))
+    assert len(got) == params.refine.iterations >= 2
+    assert got == tuple(sigmas)
 
 
 def test_layer_with_repeated_source_fid_refused(scene: dict, tmp_path: Path) -> None:

@@ -1,7 +1,9 @@
 """``heracles ground`` over tiles: the ground filter per tile with a buffer, a DTM mosaic.
 
 Each tile is filtered with the points of its neighbours inside its box grown by the
-buffer (the ground filter's window, half the largest object plus 5 m, at least 20 m), on
+buffer (the ground filter's window, half the largest object plus 5 m, at least 20 m;
+its points taken from the strips each tile is read once for,
+:func:`pyheracles.tiles.worker.strip_tile`, not from the neighbours' whole files), on
 world-aligned cells (:func:`pyheracles.ground.aligned_grid`) with parameters measured
 once for the whole city (:func:`pyheracles.tiles.plan.measure_spacings`), so the ground
 of a tile is that of a single run over the whole area and neighbouring DTMs meet on the
@@ -29,9 +31,10 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from pyheracles.errors import InputError
-from pyheracles.tiles.catalog import Tile, TileCatalog, peak_rss_mb, read_catalog, read_points
+from pyheracles.tiles.catalog import Tile, TileCatalog, peak_rss_mb, read_catalog
 from pyheracles.tiles.merge import tile_index
-from pyheracles.tiles.plan import city_ground_params, measure_spacings
+from pyheracles.tiles.plan import SampleCache, city_ground_params, measure_spacings
+from pyheracles.tiles.worker import StripJob, buffer_points, strip_tile
 
 __all__ = ["GroundJob", "GroundTilesResult", "ground_tile", "run_ground_tiles", "write_vrt"]
 
@@ -86,7 +89,7 @@ def ground_tile(job: GroundJob) -> dict[str, Any]:
     warnings: list[str] = []
     for other in job.neighbours:
         try:
-            parts.append(read_points(other.path, job.box, ())[0])
+            parts.append(buffer_points(other, job.box, job.outdir / ".work")[0])
         except Exception as exc:  # an unreadable neighbour: its points are missing
             warnings.append(f"buffer: cannot read {other.path.name} ({exc})")
     n = len(own)
@@ -279,8 +282,9 @@ def run_ground_tiles(
         raise InputError(f"the tile buffer must be >= 0 m, got {buffer_m}")
     out = Path(outdir)
     (out / "tiles").mkdir(parents=True, exist_ok=True)
-    _, ground_spacing, sample = measure_spacings(catalog, nearest=False)
-    params = city_ground_params(method, ground_spacing, size, catalog)
+    with SampleCache() as cache:  # the sampled tiles decompressed once for both measures
+        _, ground_spacing, sample = measure_spacings(catalog, nearest=False, cache=cache)
+        params = city_ground_params(method, ground_spacing, size, catalog, cache)
     jobs = [
         GroundJob(tile, tuple(catalog.neighbours(tile, buffer)), tile.box(buffer), method,
                   params, size, dtm_cell_m, catalog.crs, out)
@@ -291,7 +295,22 @@ def run_ground_tiles(
         if scheduler is not None or workers:
             client, cluster = dask_client(workers, scheduler)
             dashboard = getattr(client, "dashboard_link", None)
+        # each tile read once for the strips its neighbours' buffers take from it (a
+        # failed strip is no failure: the neighbour's file is read instead)
+        reach: dict[str, list[tuple[float, float, float, float]]] = {
+            t.name: [] for t in catalog.tiles
+        }
+        for job in jobs:
+            if (out / "tiles" / job.tile.name / "run.json").is_file():
+                continue  # finished (a resume): its buffer is not read again
+            for other in job.neighbours:
+                reach[other.name].append(job.box)
+        strips = [StripJob(t, tuple(reach[t.name]), out / ".work", keep_own=False)
+                  for t in catalog.tiles]  # fmt: skip
+        run_phase(client, strip_tile, strips, "strips", retries, progress, dashboard)
         done = run_phase(client, ground_tile, jobs, "ground", retries, progress, dashboard)
+        if all(ok for ok, _ in done.values()):  # no tile needs them again
+            shutil.rmtree(out / ".work", ignore_errors=True)
     finally:
         if client is not None:
             client.close()

@@ -26,16 +26,21 @@ Parameters measured once
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.groundfilters.refine import refine_ground
+from pyheracles.groundfilters.surface import Grid, RasterSampler
 from pyheracles.tiles.catalog import Tile, TileCatalog, read_points
 
 __all__ = [
     "CityParameters",
+    "SampleCache",
     "assign_owners",
     "auto_buffer",
     "city_ground_params",
@@ -149,8 +154,51 @@ def sample_tiles(tiles: Sequence[Tile], k: int = SAMPLE_TILES) -> list[Tile]:
     return [by_size[int(i)] for i in picks]
 
 
+class SampleCache:
+    """The world xyz of the tiles measured for the city's parameters, decompressed once.
+
+    The first :meth:`world` of a tile reads its file and keeps the points uncompressed in
+    a temporary folder; later calls load them (the spacing and every pass of the noise
+    measure the same tiles).  Memory: one tile.  Use it as a context manager (the folder
+    is deleted on exit).
+    """
+
+    def __init__(self) -> None:
+        import tempfile
+
+        self._dir = tempfile.TemporaryDirectory(prefix="pyheracles_sample_")
+        self._paths: dict[str, Path] = {}
+
+    def world(self, tile: Tile) -> NDArray[np.float64]:
+        """Every point of ``tile``, world coordinates, file order."""
+        path = self._paths.get(tile.name)
+        if path is not None:
+            return np.load(path)
+        xyz = read_points(tile.path, None, ())[0]
+        path = Path(self._dir.name) / f"{len(self._paths)}.npy"
+        np.save(path, xyz)
+        self._paths[tile.name] = path
+        return xyz
+
+    def close(self) -> None:
+        """Delete the kept points."""
+        self._dir.cleanup()
+        self._paths.clear()
+
+    def __enter__(self) -> SampleCache:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 def measure_spacings(
-    catalog: TileCatalog, *, nearest: bool = True, seed: int | None = 0, sample: int = 20000
+    catalog: TileCatalog,
+    *,
+    nearest: bool = True,
+    seed: int | None = 0,
+    sample: int = 20000,
+    cache: SampleCache | None = None,
 ) -> tuple[float, float, tuple[str, ...]]:
     """(step 1's spacing, the ground filter's spacing, the tiles measured), metres.
 
@@ -162,7 +210,8 @@ def measure_spacings(
     follow the number of sparse tiles, water or parks, not the number of points).  The
     ground filter's spacing (from the occupied area) is the median over the tiles
     weighted by their point counts.  Each tile is read whole: memory is one tile.
-    ``nearest=False`` skips step 1's spacing (NaN then).
+    ``nearest=False`` skips step 1's spacing (NaN then).  With a ``cache`` the tiles
+    read are kept for the next measure (:func:`city_noise`).
     """
     from scipy.spatial import cKDTree
 
@@ -173,7 +222,7 @@ def measure_spacings(
     rng = np.random.default_rng(seed)
     distances, ground_spacings, weights = [], [], []
     for tile in picked:
-        xyz, _, _ = read_points(tile.path, None, ())
+        xyz = read_points(tile.path, None, ())[0] if cache is None else cache.world(tile)
         if len(xyz) < 2:
             continue
         xyz -= xyz.min(axis=0)
@@ -199,6 +248,7 @@ def city_ground_params(
     ground_spacing_m: float,
     max_object_size_m: float,
     catalog: TileCatalog | None = None,
+    cache: SampleCache | None = None,
 ) -> Any:
     """:class:`pyheracles.ground.AutoParams` for ``"auto"`` from the city's measures, else
     None (the other filters' defaults do not depend on the data).
@@ -206,7 +256,8 @@ def city_ground_params(
     With a ``catalog``, the refinement's noise (the robust standard deviation of the seed
     residuals, one per pass) is also measured once for the city (:func:`city_noise`):
     measured per tile it follows each tile's terrain, and neighbouring tiles would test
-    the same points against different thresholds.
+    the same points against different thresholds.  ``cache``: the sampled tiles' points
+    kept by :func:`measure_spacings`.
     """
     from pyheracles.ground import SceneMeasures, auto_params
 
@@ -215,71 +266,134 @@ def city_ground_params(
     params = auto_params(SceneMeasures(ground_spacing_m, float("nan"), max_object_size_m))
     if catalog is None:
         return params
-    return replace(params, refine=replace(params.refine, sigma_m=city_noise(catalog, params)))
+    sigma = city_noise(catalog, params, cache)
+    return replace(params, refine=replace(params.refine, sigma_m=sigma))
 
 
-def city_noise(catalog: TileCatalog, params: Any) -> tuple[float, ...]:
+def city_noise(
+    catalog: TileCatalog, params: Any, cache: SampleCache | None = None
+) -> tuple[float, ...]:
     """The refinement's noise of each pass, pooled over the sampled tiles, metres.
 
     Pass by pass, the seed residuals of every sampled tile (its own points, world-aligned
     cells, the city's noise of the earlier passes) are pooled and their robust standard
     deviation (1.4826 x the median absolute deviation) taken: the statistic the
-    single-cloud run computes over the whole cloud, on a sample of it.  A tile is read
-    once per pass (memory: one tile); its SMRF seeds are kept (a mask).
+    single-cloud run computes over the whole cloud, on a sample of it.
+
+    Each tile's ground is carried from pass to pass (its SMRF seeds, then the ground of
+    each pass, retested against the pass's surface with the city's noise as
+    :func:`pyheracles.groundfilters.refine.refine_ground` retests it), so every pass costs
+    one surface per tile, not a rerun of the passes before it.  A tile is decompressed
+    once: its points are kept uncompressed between passes (``cache``, or a
+    :class:`SampleCache` of its own; memory: one tile).
     """
     from pyheracles.cloud import PointCloud
-    from pyheracles.ground import aligned_grid
-    from pyheracles.groundfilters.refine import refine_ground
     from pyheracles.groundfilters.smrf import smrf
-    from pyheracles.groundfilters.surface import RasterSampler
 
     picked = sample_tiles(catalog.tiles)
-    seeds: dict[str, NDArray[np.bool_]] = {}
+    refine = params.refine
     sigmas: list[float] = []
-    for k in range(int(params.refine.iterations)):
-        pooled = []
+    with SampleCache() if cache is None else nullcontext(cache) as kept:
+        states: list[_NoiseState] = []
         for tile in picked:
-            world, _, _ = read_points(tile.path, None, ())
+            world = kept.world(tile)
             if len(world) < 3:
                 continue
             cloud = PointCloud.from_world(world)
             del world
-            xy = cloud.xyz[:, :2]
-            grid = aligned_grid(xy, params.seed.cell_m, cloud.offset[:2])
-            sampler = RasterSampler(grid, xy, dtype=np.float32)
-            if tile.name not in seeds:
-                seeds[tile.name] = smrf(cloud.xyz, params.seed, sampler=sampler)[0]
-            s = seeds[tile.name]
-            if not s.any():
+            samplers = _noise_samplers(cloud.xyz, params, cloud.offset[:2])
+            seeds = smrf(cloud.xyz, params.seed, sampler=samplers[0])[0]
+            if not seeds.any():
                 continue
-            before = s
-            if k:  # the ground after pass k (the city's noise in passes 1..k)
-                fixed = replace(params.refine, iterations=k, sigma_m=tuple(sigmas))
-                before, _, _ = refine_ground(cloud.xyz, s, fixed, sampler=sampler)
-            if not before.any():
-                continue
-            # pass k + 1's surface is built from ``before``; its residuals are the statistic
-            step = replace(params.refine, iterations=k + 1, sigma_m=tuple(sigmas) + (0.0,))
-            _, dtm, _ = refine_ground(cloud.xyz, s, step, sampler=sampler)
-            z = cloud.xyz[before, 2]
-            pooled.append((z - RasterSampler(grid, xy[before])(dtm.z_m)).astype(np.float32))
-        if not pooled:
-            break
-        r = np.concatenate(pooled)
-        med = np.median(r)
-        sigmas.append(float(1.4826 * np.median(np.abs(r - med))))
+            zref = float(cloud.xyz[seeds, 2].min())  # as refine_ground: the lowest seed
+            states.append(_NoiseState(tile, zref, seeds))
+            del cloud, samplers
+        for k in range(int(refine.iterations)):
+            pooled = []
+            for st in states:
+                if not st.ground.any():
+                    continue
+                cloud = PointCloud.from_world(kept.world(st.tile))
+                xyz = cloud.xyz
+                seed_sampler, sampler = _noise_samplers(xyz, params, cloud.offset[:2])
+                if st.dtm is not None:  # the ground after pass k, with the city's noise
+                    st.ground = _retest(xyz, st.dtm, sampler, st.zref, sigmas[k - 1], refine)
+                    st.dtm = None
+                    if not st.ground.any():
+                        continue
+                # pass k + 1's surface is built from the ground after pass k; its
+                # residuals there are the statistic
+                one = replace(refine, iterations=1, sigma_m=(0.0,))
+                _, st.dtm, _ = refine_ground(xyz, st.ground, one, sampler=sampler)
+                z = xyz[st.ground, 2]
+                sample = RasterSampler(seed_sampler.grid, xyz[st.ground, :2])
+                pooled.append((z - sample(st.dtm.z_m)).astype(np.float32))
+                del xyz, cloud
+            if not pooled:
+                break
+            r = np.concatenate(pooled)
+            med = np.median(r)
+            sigmas.append(float(1.4826 * np.median(np.abs(r - med))))
     return tuple(sigmas)
+
+
+@dataclass
+class _NoiseState:
+    """One sampled tile between the passes of :func:`city_noise`."""
+
+    tile: Tile
+    zref: float  # the lowest SMRF seed (refine_ground's reference height)
+    ground: NDArray[np.bool_]  # the ground after the passes so far (the seeds at first)
+    dtm: Any = None  # the surface of the last pass, not yet used to retest the ground
+
+
+def _noise_samplers(
+    xyz: NDArray[np.float64], params: Any, origin: NDArray[np.float64]
+) -> tuple[RasterSampler, RasterSampler]:
+    """(the SMRF seeds' sampler on world-aligned cells, the refinement's sampler): the
+    refinement reuses the first when its cell is the same, as refine_ground does."""
+    from pyheracles.ground import aligned_grid
+
+    xy = xyz[:, :2]
+    seed = RasterSampler(aligned_grid(xy, params.seed.cell_m, origin), xy, dtype=np.float32)
+    if seed.grid.cell_m == params.refine.cell_m:
+        return seed, seed
+    cover = Grid.covering(xy, params.refine.cell_m)
+    return seed, RasterSampler(cover, xy, dtype=np.float32)
+
+
+def _retest(
+    xyz: NDArray[np.float64], dtm: Any, sampler: RasterSampler, zref: float, sigma: float,
+    p: Any,
+) -> NDArray[np.bool_]:  # fmt: skip
+    """The ground after one pass of refine_ground: every point retested against ``dtm``
+    with the noise ``sigma`` (the same arithmetic, in the sampler's precision, so the
+    mask is bit for bit the one refine_ground gives; tests/test_tiles.py checks it)."""
+    zrel = (np.ascontiguousarray(xyz[:, 2]) - zref).astype(sampler.dtype, copy=False)
+    residual = sampler(dtm.z_m - zref)
+    np.subtract(zrel, residual, out=residual)
+    base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
+    threshold = sampler(dtm.slope())
+    threshold *= p.slope_scalar * p.cell_m
+    threshold += base
+    mask = residual <= threshold
+    threshold *= -p.below_factor
+    mask &= residual >= threshold
+    return mask
 
 
 def city_parameters(params: Any, catalog: TileCatalog, max_object_size_m: float) -> CityParameters:
     """Measure the automatic parameters once for the whole city (see the module docstring)."""
     from pyheracles.complex import resolve_params
 
-    spacing, ground_spacing, sample = measure_spacings(catalog, seed=params.seed)
+    with SampleCache() as cache:  # the sampled tiles decompressed once for both measures
+        spacing, ground_spacing, sample = measure_spacings(catalog, seed=params.seed,
+                                                           cache=cache)  # fmt: skip
+        ground = city_ground_params(params.ground, ground_spacing, max_object_size_m, catalog,
+                                    cache)  # fmt: skip
     return CityParameters(
-        resolve_params(params, spacing),
-        city_ground_params(params.ground, ground_spacing, max_object_size_m, catalog),
-        spacing, ground_spacing, float(max_object_size_m), sample,
+        resolve_params(params, spacing), ground, spacing, ground_spacing,
+        float(max_object_size_m), sample,
     )  # fmt: skip
 
 

@@ -258,6 +258,7 @@ def run_tiles(
         timings["segment"] = time.perf_counter() - t
         if all(ok for ok, _ in first.values()):  # no tile needs them again
             shutil.rmtree(work / "strips", ignore_errors=True)
+            shutil.rmtree(work / "own", ignore_errors=True)
         for name, (ok, info) in first.items():
             if not ok:
                 status[name] = f"failed: {info}"

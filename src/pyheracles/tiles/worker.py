@@ -2,7 +2,9 @@
 
 0. :func:`strip_tile`: read the tile once and keep, uncompressed, the points inside its
    neighbours' read boxes in ``.work/strips/<tile>.npz`` (each neighbour's buffer then
-   costs a load, not the decompression of a whole file);
+   costs a load, not the decompression of a whole file) and the tile's own points in
+   ``.work/own/<tile>.npz`` (phase 1 loads them instead of decompressing the file again,
+   and deletes them once its record is saved);
 1. :func:`segment_tile`: read the tile and its buffer, ground and step 1, and save the
    owned objects with their members as (tile, index in that tile's file) plus the ground
    mask of the tile's own points in ``.work/<tile>.pkl``;
@@ -36,7 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.tiles.catalog import Tile, in_box, peak_rss_mb, read_points, read_points_in
+from pyheracles.tiles.catalog import Tile, in_box, peak_rss_mb, read_points
 
 __all__ = [
     "BUFFER_DIMS",
@@ -44,6 +46,8 @@ __all__ = [
     "StripJob",
     "WriteJob",
     "load_record",
+    "own_path",
+    "own_points",
     "save_record",
     "segment_tile",
     "strip_path",
@@ -63,6 +67,7 @@ class StripJob:
     tile: Tile
     boxes: tuple[tuple[float, float, float, float], ...]  # the neighbours' read boxes
     work: Path
+    keep_own: bool = True  # also keep the tile's own points for its phase 1
 
 
 def strip_path(work: Path, name: str) -> Path:
@@ -70,26 +75,56 @@ def strip_path(work: Path, name: str) -> Path:
     return work / "strips" / f"{name}.npz"
 
 
+def own_path(work: Path, name: str) -> Path:
+    """The phase-0 copy of tile ``name``'s own points (deleted by phase 1)."""
+    return work / "own" / f"{name}.npz"
+
+
 def strip_tile(job: StripJob) -> dict[str, Any]:
-    """Read a tile once and keep the points its neighbours need for their buffers.
+    """Read a tile once: the points its neighbours need for their buffers, and its own.
 
     Without it each tile's task would decompress every neighbour's whole file for a
     strip along its edge: nine files per tile on a grid.  The strip holds the points
     inside any neighbour's read box (file order, :data:`BUFFER_DIMS`), uncompressed;
     phase 1 selects its own box from it with the same test (:func:`in_box`), so the
-    points are those a direct read of the neighbour's file would give.
+    points are those a direct read of the neighbour's file would give.  The tile's own
+    points (every point, :data:`BUFFER_DIMS`) are kept beside, uncompressed, for the
+    tile's phase 1; they are written before the strip, so a strip on disk means both
+    are whole.
     """
     target = strip_path(job.work, job.tile.name)
     if target.is_file() or not job.boxes:
         return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
     from pyheracles.io.atomic import atomic_path
 
-    xyz, index, attrs = read_points_in(job.tile.path, job.boxes, BUFFER_DIMS)
+    xyz, index, attrs = read_points(job.tile.path, None, BUFFER_DIMS)
+    dims = {f"dim_{k}": v for k, v in attrs.items()}
+    if job.keep_own:
+        with atomic_path(own_path(job.work, job.tile.name)) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, xyz=xyz, **dims)
+    keep = np.zeros(len(xyz), dtype=bool)
+    for box in job.boxes:
+        keep |= in_box(xyz[:, 0], xyz[:, 1], box)
+    keep = np.flatnonzero(keep)
     with atomic_path(target) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, xyz=xyz, index=index, boxes=np.asarray(job.boxes, dtype=float),
-                 **{f"dim_{k}": v for k, v in attrs.items()})  # fmt: skip
-    return {"tile": job.tile.name, "skipped": False, "n_strip": len(xyz),
+        np.savez(fh, xyz=xyz[keep], index=index[keep], boxes=np.asarray(job.boxes, dtype=float),
+                 **{k: v[keep] for k, v in dims.items()})  # fmt: skip
+    return {"tile": job.tile.name, "skipped": False, "n_strip": len(keep),
             "peak_rss_mb": peak_rss_mb()}  # fmt: skip
+
+
+def own_points(
+    tile: Tile, work: Path
+) -> tuple[NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[Any]]]:
+    """Every point of ``tile`` (file order, :data:`BUFFER_DIMS`): phase 0's copy if it
+    is there, else read from the file."""
+    path = own_path(work, tile.name)
+    if path.is_file():
+        with np.load(path) as data:
+            xyz = data["xyz"]
+            attrs = {k[4:]: data[k] for k in data.files if k.startswith("dim_")}
+        return xyz, np.arange(len(xyz), dtype=np.int64), attrs
+    return read_points(tile.path, None, BUFFER_DIMS)
 
 
 def buffer_points(
@@ -138,9 +173,10 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
     t0 = time.perf_counter()
     target = job.work / f"{job.tile.name}.pkl"
     if target.is_file():
+        own_path(job.work, job.tile.name).unlink(missing_ok=True)
         return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
     dims = BUFFER_DIMS
-    parts = [(job.tile_index[job.tile.name], *read_points(job.tile.path, None, dims))]
+    parts = [(job.tile_index[job.tile.name], *own_points(job.tile, job.work))]
     warnings: list[str] = []
     box = job.box
     for other in job.neighbours:
@@ -227,6 +263,7 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
         "seconds": time.perf_counter() - t0,
     }
     save_record(record, target)
+    own_path(job.work, job.tile.name).unlink(missing_ok=True)
     return {"tile": job.tile.name, "skipped": False, "n_points": n_own, "n_read": len(cloud),
             "seconds": record["seconds"], "peak_rss_mb": peak_rss_mb()}  # fmt: skip
 
