@@ -25,7 +25,7 @@ from pyheracles.groundfilters.surface import (
     inpaint,
 )
 
-__all__ = ["RefineParams", "refine_ground"]
+__all__ = ["RefineParams", "refine_ground", "surface_residual", "within_threshold"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +94,32 @@ def _robust_sigma(values: NDArray[np.float64]) -> float:
     return float(1.4826 * np.median(np.abs(values - med)))
 
 
+def surface_residual(
+    zrel: NDArray[np.floating], dtm: DTM, zref: float, sampler: RasterSampler
+) -> NDArray[np.floating]:
+    """Height of every point above ``dtm`` (``zrel`` = z - ``zref``, in the sampler's dtype)."""
+    residual = sampler(dtm.z_m - zref)
+    np.subtract(zrel, residual, out=residual)
+    return residual
+
+
+def within_threshold(
+    residual: NDArray[np.floating], slope: NDArray[np.floating], sigma: float, p: RefineParams
+) -> NDArray[np.bool_]:
+    """The refinement's test: ground where the residual lies within the noise threshold
+    (``noise_factor`` sigmas, clipped, plus the slope term) above the surface and within
+    ``below_factor`` times that below it.  ``slope`` (the DTM slope at the points) is
+    overwritten."""
+    base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
+    threshold = slope
+    threshold *= p.slope_scalar * p.cell_m
+    threshold += base
+    mask = residual <= threshold
+    threshold *= -p.below_factor
+    mask &= residual >= threshold
+    return mask
+
+
 def refine_ground(
     xyz: NDArray[np.float64],
     seeds: NDArray[np.bool_],
@@ -142,16 +168,9 @@ def refine_ground(
         idx = np.flatnonzero(mask)  # one scan of the mask, then fast gathers
         surface = _mean_surface_cells(grid, sampler.flat[idx], x[idx], y[idx], z[idx])
         dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
-        residual = sampler(dtm.z_m - zref)
-        np.subtract(zrel, residual, out=residual)
+        residual = surface_residual(zrel, dtm, zref, sampler)
         sigma = float(p.sigma_m[k]) if k < len(p.sigma_m) else _robust_sigma(residual[idx])
-        base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
-        threshold = sampler(dtm.slope())
-        threshold *= p.slope_scalar * p.cell_m
-        threshold += base
-        mask = residual <= threshold
-        threshold *= -p.below_factor
-        mask &= residual >= threshold
+        mask = within_threshold(residual, sampler(dtm.slope()), sigma, p)
     if dtm is None:
         raise InputError("no ground seed to refine", hint="check the first filter's result")
     return mask, dtm, sigma

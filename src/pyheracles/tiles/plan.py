@@ -369,17 +369,11 @@ def _retest(
     """The ground after one pass of refine_ground: every point retested against ``dtm``
     with the noise ``sigma`` (the same arithmetic, in the sampler's precision, so the
     mask is bit for bit the one refine_ground gives; tests/test_tiles.py checks it)."""
+    from pyheracles.groundfilters.refine import surface_residual, within_threshold
+
     zrel = (np.ascontiguousarray(xyz[:, 2]) - zref).astype(sampler.dtype, copy=False)
-    residual = sampler(dtm.z_m - zref)
-    np.subtract(zrel, residual, out=residual)
-    base = float(np.clip(p.noise_factor * sigma, p.min_threshold_m, p.max_threshold_m))
-    threshold = sampler(dtm.slope())
-    threshold *= p.slope_scalar * p.cell_m
-    threshold += base
-    mask = residual <= threshold
-    threshold *= -p.below_factor
-    mask &= residual >= threshold
-    return mask
+    residual = surface_residual(zrel, dtm, zref, sampler)
+    return within_threshold(residual, sampler(dtm.slope()), sigma, p)
 
 
 def city_parameters(params: Any, catalog: TileCatalog, max_object_size_m: float) -> CityParameters:
