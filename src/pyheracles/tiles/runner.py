@@ -355,8 +355,8 @@ def check_layers(
                 f"layer {name!r}: {int(g['source_fid'].duplicated().sum())} features repeat "
                 f"another's source_fid (e.g. {dup!r})",
                 path=src,
-                hint="give each feature its own source_fid, or drop the column "
-                "(read_layer numbers the features)",
+                hint="give each feature its own id in that column, or drop the column "
+                "(the features are then numbered in file order)",
             )
         g = g.reset_index(drop=True)
         g.attrs.update(gdf.attrs)
