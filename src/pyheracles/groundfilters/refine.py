@@ -21,8 +21,8 @@ from pyheracles.groundfilters.surface import (
     DTM,
     Grid,
     RasterSampler,
-    _mean_surface_cells,
     inpaint,
+    mean_surface_cells,
 )
 
 __all__ = ["RefineParams", "refine_ground", "surface_residual", "within_threshold"]
@@ -166,7 +166,7 @@ def refine_ground(
         if not mask.any():
             break
         idx = np.flatnonzero(mask)  # one scan of the mask, then fast gathers
-        surface = _mean_surface_cells(grid, sampler.flat[idx], x[idx], y[idx], z[idx])
+        surface = mean_surface_cells(grid, sampler.flat[idx], x[idx], y[idx], z[idx])
         dtm = DTM(inpaint(surface), grid, np.isfinite(surface))
         residual = surface_residual(zrel, dtm, zref, sampler)
         sigma = float(p.sigma_m[k]) if k < len(p.sigma_m) else _robust_sigma(residual[idx])

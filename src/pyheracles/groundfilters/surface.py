@@ -29,6 +29,7 @@ __all__ = [
     "height_above_ground",
     "inpaint",
     "mean_surface",
+    "mean_surface_cells",
     "rasterise",
     "rasterise_cells",
     "sample_raster",
@@ -268,10 +269,10 @@ def mean_surface(
     """
     if flat is None:
         flat = grid.flat_index(xy)
-    return _mean_surface_cells(grid, flat, xy[:, 0], xy[:, 1], z)
+    return mean_surface_cells(grid, flat, xy[:, 0], xy[:, 1], z)
 
 
-def _mean_surface_cells(
+def mean_surface_cells(
     grid: Grid,
     flat: NDArray[np.integer],
     x: NDArray[np.float64],

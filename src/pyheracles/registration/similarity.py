@@ -38,6 +38,7 @@ __all__ = [
     "SimilarityResult",
     "estimate_similarity",
     "similarity_matrix",
+    "skew",
 ]
 
 ESTIMATORS = ("lsq", "danish", "l1", "huber", "tukey")
@@ -216,7 +217,7 @@ def similarity_matrix(
     return T
 
 
-def _skew(q: NDArray[np.float64]) -> NDArray[np.float64]:
+def skew(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Stack of cross-product matrices ``[q]x`` for ``(N, 3)`` vectors."""
     z = np.zeros(len(q))
     return np.stack(
@@ -257,7 +258,7 @@ def parameter_covariance(
     Rcs = R @ np.asarray(centre_source, dtype=np.float64)
     G = np.zeros((7, u))
     G[0:3, 0:3] = np.eye(3)
-    G[0:3, 3:6] = s * _skew(Rcs[None, :])[0]
+    G[0:3, 3:6] = s * skew(Rcs[None, :])[0]
     G[3:6, 3:6] = Je
     if with_scale:
         G[0:3, 6] = -Rcs
@@ -336,7 +337,7 @@ def _weighted_fit(
         v = b - pred
         J = np.zeros((n, 3, u))
         J[:, :, 0:3] = np.eye(3)
-        J[:, :, 3:6] = -s * _skew(q)  # d(exp([d]x) q)/dd = -[q]x
+        J[:, :, 3:6] = -s * skew(q)  # d(exp([d]x) q)/dd = -[q]x
         if with_scale:
             J[:, :, 6] = q
         Jw = J.reshape(3 * n, u) * ww[:, None]
@@ -354,7 +355,7 @@ def _weighted_fit(
     v = b - (t + s * q)
     J = np.zeros((n, 3, u))
     J[:, :, 0:3] = np.eye(3)
-    J[:, :, 3:6] = -s * _skew(q)
+    J[:, :, 3:6] = -s * skew(q)
     if with_scale:
         J[:, :, 6] = q
     Jw = J.reshape(3 * n, u) * ww[:, None]

@@ -30,9 +30,9 @@ from pyheracles.registration.similarity import (
     PARAMETER_NAMES,
     SimilarityParams,
     SimilarityResult,
-    _skew,
     estimate_similarity,
     parameter_covariance,
+    skew,
 )
 
 __all__ = [
@@ -399,7 +399,7 @@ def block_adjustment(
                 rr = 3 * sel + a
                 v[rr] = X[obs_j[sel], a] - pred[:, a]  # "observation" minus model
                 J[rr, o + a] = 1.0
-                J[rr, o + 3 : o + 6] = -st["s"] * _skew(q)[:, a, :]
+                J[rr, o + 3 : o + 6] = -st["s"] * skew(q)[:, a, :]
                 if c.with_scale:
                     J[rr, o + 6] = q[:, a]
                 J[rr, p0 + 3 * obs_j[sel] + a] = -1.0
