@@ -9,7 +9,7 @@ points, Murtiyoso 2020, ch. 6.3).  Here:
 - :func:`local_pca` and :func:`estimate_normals` run a compiled exact k-NN
   search on an implicit octree that accumulates each neighbourhood's
   covariance directly, without an ``(N, k)`` neighbour table
-  (:func:`octree_pca`, :mod:`pyheracles.geometry._knn_kernels`: about 2x
+  (:func:`octree_pca`, :mod:`pyheracles.geometry.knn_kernels`: about 2x
   Open3D's ``estimate_normals`` on a 1 M-point scan on 2 cores, where a
   ``cKDTree`` query alone costs as much as Open3D);
 - :func:`knn` (the neighbour table, for region growing) queries a
@@ -355,9 +355,9 @@ def octree_pca(
     Notes
     -----
     The algorithm, and why it is hand-written, is described in
-    :mod:`pyheracles.geometry._knn_kernels`.
+    :mod:`pyheracles.geometry.knn_kernels`.
     """
-    from pyheracles.geometry import _knn_kernels as kern  # numba compiles on first import
+    from pyheracles.geometry import knn_kernels as kern  # numba compiles on first import
 
     arr = np.ascontiguousarray(xyz, dtype=np.float64)
     n = len(arr)
@@ -463,8 +463,8 @@ def local_pca(
         if tree is not None and tree.n != n:
             raise InputError(f"the KD-tree holds {tree.n} points but {n} were given")
         # The compiled octree search is exact and 3-4x faster than querying even
-        # a shared tree (see _knn_kernels), so a given tree is only checked.
-        from pyheracles.geometry._knn_kernels import bounding_box
+        # a shared tree (see knn_kernels), so a given tree is only checked.
+        from pyheracles.geometry.knn_kernels import bounding_box
 
         lo, hi = bounding_box(arr)
         vals, normals, dirs = octree_pca(

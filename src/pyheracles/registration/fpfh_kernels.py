@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit, prange
 
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
-    # as in pyheracles.geometry._knn_kernels: numba tries TBB first and warns when the
+    # as in pyheracles.geometry.knn_kernels: numba tries TBB first and warns when the
     # system's TBB is too old (the tests turn warnings into errors)
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 
