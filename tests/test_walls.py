@@ -163,3 +163,25 @@ def _wall_h(s: Scene, p0, p1, inst: int, holes=(), height: float = 4.0) -> None:
     poly = shapely.Polygon([(0, 0), (length, 0), (length, height), (0, height)], holes)
     s.add_prism(poly, [p0[0], p0[1], 0.0], frame, T, instance=inst, class_name="wall",
                 part="face")  # fmt: skip
+
+
+def test_cli_walls_door_step_and_mullion_options(room, tmp_path) -> None:
+    """``--door-step`` and ``--max-mullion`` reach WallParams (run.json says so); a negative
+    value is one line and exit code 2."""
+    import json
+
+    from pyheracles.cli import main
+    from pyheracles.cloud import PointCloud
+    from pyheracles.io import write_cloud
+
+    xyz, _ = room
+    src = tmp_path / "room.laz"
+    write_cloud(PointCloud.from_world(xyz[::3] + [500000.0, 5400000.0, 100.0]), src)
+    out = tmp_path / "w"
+    assert main(["walls", str(src), "-o", str(out), "--door-step", "0.35",
+                 "--max-mullion", "0.15"]) == 0  # fmt: skip
+    used = json.loads((out / "run.json").read_text())["parameters"]["walls"]
+    assert used["door_step_m"] == 0.35 and used["max_mullion_m"] == 0.15
+    doc = json.loads((out / "walls.json").read_text())
+    assert doc["walls"], "the room's walls are found"
+    assert main(["walls", str(src), "-o", str(tmp_path / "bad"), "--door-step", "-1"]) == 2

@@ -26,6 +26,7 @@ _HELP = "\n\n".join(
         "Examples:",
         "  heracles walls nave_tls.laz -o out/walls",
         "  heracles walls chapel.laz --distance 0.02 --min-height 2 -o out/walls",
+        "  heracles walls choir.laz --max-mullion 0.15 -o out/walls   # mullioned windows whole",
     ]
 )
 
@@ -85,6 +86,16 @@ def register(app: typer.Typer) -> None:
         voxel_m: Annotated[
             float, typer.Option("--voxel", help="Detection sample cube, metres.")
         ] = 0.06,
+        door_step_m: Annotated[
+            float,
+            typer.Option("--door-step", help="An opening whose foot lies within this height of "
+                         "a face's foot is a door, metres."),
+        ] = 0.2,
+        max_mullion_m: Annotated[
+            float,
+            typer.Option("--max-mullion", help="Lights of one window separated by mullions up "
+                         "to this width are one opening, metres (0: each light apart)."),
+        ] = 0.0,
         ifc: Annotated[
             bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")
         ] = False,
@@ -111,7 +122,8 @@ def register(app: typer.Typer) -> None:
 
         try:
             params = WallParams(distance_m=distance_m, min_height_m=min_height_m,
-                                min_length_m=min_length_m, voxel_m=voxel_m)  # fmt: skip
+                                min_length_m=min_length_m, voxel_m=voxel_m,
+                                door_step_m=door_step_m, max_mullion_m=max_mullion_m)  # fmt: skip
         except ValueError as exc:
             raise InputError(str(exc)) from exc
         timings: dict[str, float] = {}
