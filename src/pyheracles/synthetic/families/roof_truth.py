@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.beams.joints import closest_points
 from pyheracles.synthetic.families.boxes import obb_overlap_many
 from pyheracles.synthetic.families.roof_frame import Member
 
@@ -38,17 +39,6 @@ JOINT_TOL_M = 0.01
 FACES = ("+side", "-side", "+up", "-up", "+end", "-end")
 
 Array = NDArray[np.float64]
-
-
-def _closest(a0: Array, a1: Array, b0: Array, b1: Array) -> tuple[float, float]:
-    """Parameters (0-1) of the closest points of segments ``a0-a1`` and ``b0-b1``."""
-    u, v, w = a1 - a0, b1 - b0, a0 - b0
-    a, b, c, d, e = u @ u, u @ v, v @ v, u @ w, v @ w
-    den = a * c - b * b
-    s = 0.5 if den < 1e-12 else float(np.clip((b * e - c * d) / den, 0, 1))
-    t = float(np.clip((b * s + e) / c, 0, 1))
-    s = float(np.clip((b * t - d) / a, 0, 1))
-    return s, t
 
 
 def _near_end(m: Member, s: float, other: Member) -> bool:
@@ -78,7 +68,7 @@ def find_joints(members: list[Member], tol: float = JOINT_TOL_M) -> list[dict[st
         for j in meet:
             b = members[j]
             (a0, a1), (b0, b1) = a.ends, b.ends
-            s, t = _closest(a0, a1, b0, b1)
+            s, t = closest_points(a0, a1, b0, b1)
             p = 0.5 * (a0 + s * (a1 - a0) + b0 + t * (b1 - b0))
             out.append(
                 {
