@@ -337,23 +337,15 @@ def _stacked(a: BeamCuboid, b: BeamCuboid, p: JointParams) -> bool:
 
 def components(n_beams: int, joints: list[Joint]) -> NDArray[np.int32]:
     """Connected component (1-based, largest first) of every beam in the joint graph."""
-    parent = np.arange(n_beams)
-
-    def root(k: int) -> int:
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = int(parent[k])
-        return k
-
-    for jt in joints:
-        ra, rb = root(jt.members[0] - 1), root(jt.members[1] - 1)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    roots = np.array([root(k) for k in range(n_beams)], dtype=np.int64)
     if n_beams == 0:
         return np.zeros(0, np.int32)
-    uniq, inverse, counts = np.unique(roots, return_inverse=True, return_counts=True)
-    order = np.lexsort((uniq, -counts))  # largest first, then by first beam
-    rank = np.empty(len(uniq), np.int64)
-    rank[order] = np.arange(1, len(uniq) + 1)
-    return rank[inverse].astype(np.int32)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from pyheracles.segment.euclidean import relabel_by_size
+
+    pairs = np.array([jt.members for jt in joints], dtype=np.int64).reshape(-1, 2) - 1
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(n_beams, n_beams))  # fmt: skip
+    # scipy numbers components by their lowest beam: ties in size go to the first beam
+    return relabel_by_size(connected_components(graph, directed=False)[1], 1)
