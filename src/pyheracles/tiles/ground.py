@@ -23,7 +23,7 @@ import shutil
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape
@@ -34,7 +34,13 @@ from pyheracles.errors import InputError
 from pyheracles.tiles.catalog import Tile, TileCatalog, peak_rss_mb, read_catalog
 from pyheracles.tiles.merge import tile_index
 from pyheracles.tiles.plan import SampleCache, city_ground_params, measure_spacings
-from pyheracles.tiles.worker import StripJob, buffer_points, strip_tile
+from pyheracles.tiles.worker import (
+    StripJob,
+    neighbour_buffers,
+    read_tile_cloud,
+    skipped,
+    strip_tile,
+)
 
 __all__ = ["GroundJob", "GroundTilesResult", "ground_tile", "run_ground_tiles", "write_vrt"]
 
@@ -75,23 +81,18 @@ def ground_tile(job: GroundJob) -> dict[str, Any]:
     from pyheracles.cli.ground import write_dtm_geotiff
     from pyheracles.cloud import PointCloud
     from pyheracles.ground import extract_ground, height_above_ground
-    from pyheracles.io import read_cloud, write_cloud
+    from pyheracles.io import write_cloud
     from pyheracles.provenance import write_run_json
 
     t0 = time.perf_counter()
     final = job.outdir / "tiles" / job.tile.name
     if (final / "run.json").is_file():
-        return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
-    own = read_cloud(job.tile.path)
-    if own.crs is None and job.crs is not None:
-        own = replace(own, crs=job.crs)
-    parts = [own.world_xyz()]
+        return skipped(job.tile)
+    own = read_tile_cloud(job.tile, job.crs)
     warnings: list[str] = []
-    for other in job.neighbours:
-        try:
-            parts.append(buffer_points(other, job.box, job.outdir / ".work")[0])
-        except Exception as exc:  # an unreadable neighbour: its points are missing
-            warnings.append(f"buffer: cannot read {other.path.name} ({exc})")
+    buffers = neighbour_buffers(job.neighbours, job.box, job.outdir / ".work", warnings)
+    parts = [own.world_xyz(), *(b[1] for b in buffers)]
+    del buffers
     n = len(own)
     cloud = PointCloud.from_world(np.concatenate(parts), source=str(job.tile.path))
     del parts

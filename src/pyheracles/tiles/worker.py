@@ -94,7 +94,7 @@ def strip_tile(job: StripJob) -> dict[str, Any]:
     """
     target = strip_path(job.work, job.tile.name)
     if target.is_file() or not job.boxes:
-        return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
+        return skipped(job.tile)
     from pyheracles.io.atomic import atomic_path
 
     xyz, index, attrs = read_points(job.tile.path, None, BUFFER_DIMS)
@@ -143,6 +143,37 @@ def buffer_points(
     return read_points(tile.path, box, BUFFER_DIMS)
 
 
+def skipped(tile: Tile) -> dict[str, Any]:
+    """A task's result for a tile whose output was already there (a resumed run)."""
+    return {"tile": tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
+
+
+def read_tile_cloud(tile: Tile, crs: Any) -> Any:
+    """The tile's own points as a :class:`~pyheracles.cloud.PointCloud`, every dimension
+    kept, with the catalogue's CRS where the file names none."""
+    from pyheracles.io import read_cloud
+
+    cloud = read_cloud(tile.path)
+    return cloud if cloud.crs is not None or crs is None else replace(cloud, crs=crs)
+
+
+def neighbour_buffers(
+    neighbours: tuple[Tile, ...],
+    box: tuple[float, float, float, float],
+    work: Path,
+    warnings: list[str],
+) -> list[tuple[Tile, NDArray[np.float64], NDArray[np.int64], dict[str, NDArray[Any]]]]:
+    """Each neighbour's points inside ``box`` (:func:`buffer_points`); an unreadable
+    neighbour adds a line to ``warnings`` and its points are missing from the buffer."""
+    out = []
+    for other in neighbours:
+        try:
+            out.append((other, *buffer_points(other, box, work)))
+        except Exception as exc:  # an unreadable neighbour: its points are missing
+            warnings.append(f"buffer: cannot read {other.path.name} ({exc})")
+    return out
+
+
 # ----------------------------------------------------------------------------- phase 1
 @dataclass(frozen=True)
 class SegmentJob:
@@ -174,16 +205,13 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
     target = job.work / f"{job.tile.name}.pkl"
     if target.is_file():
         own_path(job.work, job.tile.name).unlink(missing_ok=True)
-        return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
+        return skipped(job.tile)
     dims = BUFFER_DIMS
     parts = [(job.tile_index[job.tile.name], *own_points(job.tile, job.work))]
     warnings: list[str] = []
     box = job.box
-    for other in job.neighbours:
-        try:
-            parts.append((job.tile_index[other.name], *buffer_points(other, box, job.work)))
-        except Exception as exc:  # an unreadable neighbour: its points are missing
-            warnings.append(f"buffer: cannot read {other.path.name} ({exc})")
+    for other, *points in neighbour_buffers(job.neighbours, box, job.work, warnings):
+        parts.append((job.tile_index[other.name], *points))
     n_own = len(parts[0][1])
     world = np.concatenate([p[1] for p in parts])
     src_tile = np.concatenate([np.full(len(p[1]), p[0], dtype=np.int32) for p in parts])
@@ -300,17 +328,14 @@ def write_tile(job: WriteJob) -> dict[str, Any]:
     """Label one tile's own points from the owners' results and write ``tiles/<tile>/``."""
     import geopandas as gpd
 
-    from pyheracles.io import read_cloud
     from pyheracles.io.results import write_segmentation
     from pyheracles.labels import Segmentation
 
     t0 = time.perf_counter()
     final = job.outdir / "tiles" / job.tile.name
     if (final / "run.json").is_file():
-        return {"tile": job.tile.name, "skipped": True, "peak_rss_mb": peak_rss_mb()}
-    cloud = read_cloud(job.tile.path)
-    if cloud.crs is None and job.crs is not None:
-        cloud = replace(cloud, crs=job.crs)
+        return skipped(job.tile)
+    cloud = read_tile_cloud(job.tile, job.crs)
     n = len(cloud)
     own = load_record(job.outdir / ".work" / f"{job.tile.name}.pkl")
     ground = np.asarray(own["ground_own"], dtype=bool).copy()
