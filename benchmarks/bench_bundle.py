@@ -272,7 +272,7 @@ def bench_pycolmap(n_images: int, n_points: int, seed: int = 0) -> None:
         emit(dataset=f"synthetic-pinhole-{n_images}img", metric="skipped", value=None,
              reason="pycolmap not installed (pip install pycolmap, the 'bench' extra)")  # fmt: skip
         return
-    from pyheracles.bundle.adjust import prepare_network
+    from pyheracles.bundle.network import prepare_network
 
     warm, wparams = _pinhole_network(10, 500, seed)
     bundle_adjust(warm, wparams)  # one-off imports (scipy.stats) out of the timing

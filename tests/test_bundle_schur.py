@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from pyheracles.bundle import bundle_adjust
-from pyheracles.bundle.adjust import prepare_network
 from pyheracles.bundle.camera import image_residuals
 from pyheracles.bundle.diagnostics import control_point_test
+from pyheracles.bundle.network import prepare_network
 from pyheracles.synthetic.network import NetworkParameters, make_network
 
 

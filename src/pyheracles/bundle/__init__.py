@@ -8,8 +8,9 @@ check point residuals and per-image statistics.
 
 from __future__ import annotations
 
-from pyheracles.bundle.adjust import BundleParameters, BundleResult, bundle_adjust
+from pyheracles.bundle.adjust import BundleResult, bundle_adjust
 from pyheracles.bundle.camera import IO_NAMES, Camera
+from pyheracles.bundle.parameters import BundleParameters
 from pyheracles.bundle.project import BundleWarning, Project
 from pyheracles.bundle.readers import read_project
 

@@ -286,7 +286,7 @@ def control_point_test(net, io: np.ndarray, eo: np.ndarray, sigma: float = 1.0,
     Parameters
     ----------
     net
-        The :class:`~pyheracles.bundle.adjust.Network` (observations in mm, weights).
+        The :class:`~pyheracles.bundle.network.Network` (observations in mm, weights).
     io, eo
         (ncam,10) interior and (n,6) exterior orientation to intersect with.
     sigma
