@@ -524,3 +524,18 @@ def test_stage_spinner_and_quiet(tmp_path: Path, small_site, monkeypatch) -> Non
         pass
     progress.set_quiet(False)
     assert buf.getvalue() == ""
+
+
+def test_a_message_kept_as_warning_and_note_is_printed_once(tmp_path: Path, capsys) -> None:
+    """``heracles walls`` on a cloud too small for a wall kept its note under "warnings" and
+    "notes" of run.json, and the screen showed it twice."""
+    cloud = write_cloud(
+        PointCloud.from_world(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 2.0]])),
+        tmp_path / "three.laz",
+    )
+    out = tmp_path / "out"
+    assert main(["walls", str(cloud), "-o", str(out)]) == 0
+    run = json.loads((out / "run.json").read_text())
+    note = run["notes"][0]
+    assert note in run["warnings"]
+    assert capsys.readouterr().err.count(f"warning: {note}") == 1

@@ -283,7 +283,7 @@ def run_warnings(folder: Path) -> list[str]:
     """Warnings and notes recorded in the ``run.json`` files of ``folder`` (recursively).
 
     Nested records (``step2/supports/hall/run.json``) are prefixed with their
-    folder relative to ``folder``.
+    folder relative to ``folder``; a message recorded under two keys is listed once.
     """
     found: list[str] = []
     runs = sorted(Path(folder).rglob("run.json"), key=lambda p: (len(p.parts), str(p)))
@@ -301,7 +301,7 @@ def run_warnings(folder: Path) -> list[str]:
             items = [value] if isinstance(value, str) else value
             if isinstance(items, list):
                 found.extend(f"{prefix}{item}" for item in items if item)
-    return found
+    return list(dict.fromkeys(found))  # a message kept as a warning and as a note: once
 
 
 def print_run_warnings(folder: Path) -> list[str]:
