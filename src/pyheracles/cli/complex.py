@@ -31,7 +31,7 @@ def register(app: typer.Typer) -> None:
         ),
         out: Path = typer.Option(..., "-o", "--out", "--outdir", help="Output folder."),
         ground: str = typer.Option("auto", help="Ground: auto|csf|smrf|class|none."),
-        buffer: float = typer.Option(None, help="Cookie-cutter buffer, m (auto: from spacing)."),
+        buffer: float = typer.Option(None, help="Cookie-cutter buffer, m (auto: 1 m)."),
         distance: float = typer.Option(None, help="Clustering distance, m (auto)."),
         min_points: int = typer.Option(None, help="Minimum cluster size, points (auto)."),
         order: str = typer.Option(

@@ -16,7 +16,11 @@ Beyond the thesis:
   polygon that contains it, or else to the nearest one;
 * the candidate search uses a grid index of the cloud instead of a
   point-in-polygon test of the whole cloud for each polygon;
-* parameters default to multiples of the measured point spacing.
+* parameters default to multiples of the measured point spacing (the buffer,
+  which absorbs digitising errors, does not grow with it);
+* with echoes (LAS return numbers), points amid pass-through returns are
+  foliage: they join an object only up to a little above its surface beside
+  them, so crowns over roofs stay out at any density.
 """
 
 from __future__ import annotations

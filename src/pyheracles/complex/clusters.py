@@ -12,7 +12,17 @@ from numpy.typing import NDArray
 from pyheracles.complex.params import EXACT_LIMIT, ComplexParams
 from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
 
-__all__ = ["cluster", "hull", "object_points", "scattered_points", "select_clusters"]
+__all__ = [
+    "POROUS_NEIGHBOURS",
+    "TOP_NEIGHBOURS",
+    "cluster",
+    "hull",
+    "local_top",
+    "object_points",
+    "porous_points",
+    "scattered_points",
+    "select_clusters",
+]
 
 
 def cluster(xyz: NDArray[np.float64], params: ComplexParams) -> NDArray[np.int32]:
@@ -30,16 +40,21 @@ def scattered_points(
     pts: NDArray[np.int64],
     params: ComplexParams,
     multi_echo: NDArray[np.bool_] | None,
+    porous: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Flag scattered (foliage-like) points among a layer's candidates.
 
     The surface variation is computed on voxel centroids (voxel a third of the
     clustering distance) and given back to the voxel's points: the same scale
     whatever the density, and a 10-100x smaller neighbour search on dense
-    photogrammetric clouds.
+    photogrammetric clouds.  ``porous`` (over ``pts``, see
+    :func:`porous_points`) are scattered too.
     """
-    if params.scatter_max is None or len(pts) < 12:
+    if params.scatter_max is None:
         return np.zeros(len(pts), dtype=bool)
+    flag = np.zeros(len(pts), dtype=bool) if porous is None else porous.copy()
+    if len(pts) < 12:
+        return flag
     from pyheracles.geometry.neighbours import estimate_normals
 
     p = xyz[pts]
@@ -51,13 +66,42 @@ def scattered_points(
     inverse = inverse.ravel()
     centroids = np.column_stack([np.bincount(inverse, weights=p[:, j]) / counts for j in range(3)])
     if len(centroids) < 12:
-        return np.zeros(len(pts), dtype=bool)
+        return flag
     _, curvature_v = estimate_normals(centroids, k=12)
     curvature = curvature_v[inverse]
-    flag = curvature > params.scatter_max
+    flag |= curvature > params.scatter_max
     if multi_echo is not None and params.multi_echo_scatter_max is not None:
         flag |= multi_echo[pts] & (curvature > params.multi_echo_scatter_max)
     return flag
+
+
+#: Neighbours (the point itself excluded) of the porosity vote: 16 keep most of the eave
+#: line of a roof (pass-through returns on an edge) out of it on AHN3 tile 1, 7 did not.
+POROUS_NEIGHBOURS = 16
+
+
+def porous_points(
+    xyz: NDArray[np.float64], through: NDArray[np.bool_], share: float | None
+) -> NDArray[np.bool_]:
+    """Points of porous surfaces (foliage): amid points the pulses went on beyond.
+
+    A pulse that goes on beyond a point (``through``: not its last return) saw
+    a porous surface there, or an edge.  A point counts as porous when at
+    least ``share`` of the point and its :data:`POROUS_NEIGHBOURS` nearest
+    points (3D, among ``xyz``) are pass-through: a crown's last returns (the
+    pulses that ended in it) lie amid its pass-through returns, while the
+    pass-through returns of a roof's eave line lie amid the roof's last
+    returns, and a roof under a crown amid its own.  ``share=None`` flags the
+    pass-through points themselves.
+    """
+    if share is None or not through.any():
+        return through.copy()
+    if len(xyz) <= POROUS_NEIGHBOURS:
+        return np.full(len(xyz), through.mean() >= share)
+    from scipy.spatial import cKDTree
+
+    _, idx = cKDTree(xyz).query(xyz, k=POROUS_NEIGHBOURS + 1)
+    return through[idx].mean(axis=1) >= share
 
 
 def object_points(
@@ -66,11 +110,15 @@ def object_points(
     cand_dist: NDArray[np.float64],
     scattered: NDArray[np.bool_],
     params: ComplexParams,
+    porous: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask over ``cand`` of the points that make the polygon's object.
 
     Clusters are grown from the smooth points; scattered points then join
     through chains of scattered points near the footprint (see below).
+    ``porous`` (over ``cand``, a subset of ``scattered``) marks the points of
+    porous surfaces (see :func:`porous_points`): they join only up to
+    ``params.scatter_rise_m`` above the object's surface beside them.
     """
     keep = np.zeros(len(cand), dtype=bool)
     cand_in = cand_dist == 0.0
@@ -90,9 +138,19 @@ def object_points(
     # neither is taken, even where it touches the object.  Links are twice the
     # clustering distance: such points are sparse.
     reach = 2.0 * float(params.attach_distance_m)  # type: ignore[arg-type]
-    top = float(np.percentile(xyz[cand[keep], 2], 99)) + 0.5 * reach
+    rise = 0.5 * reach
+    if params.scatter_above_top_m is not None:
+        rise = min(rise, params.scatter_above_top_m)  # edges rise no higher on sparse surveys
+    top = float(np.percentile(xyz[cand[keep], 2], 99)) + rise
     near_edge = cand_dist[loose] <= float(params.scatter_offset_m)  # type: ignore[arg-type]
     eligible = loose[near_edge & (xyz[cand[loose], 2] <= top)]
+    if params.scatter_rise_m is not None and porous is not None and porous[eligible].any():
+        # foliage over a roof rises above the roof beside it; an eave does not.
+        # Rough solid parts (a dormer's, a chimney's edges) may: only porous points
+        # are held to the surface beside them.
+        surface = local_top(xyz[cand[keep]], xyz[cand[eligible], :2], reach)
+        high = xyz[cand[eligible], 2] > surface + params.scatter_rise_m
+        eligible = eligible[~(high & porous[eligible])]
     if len(eligible) == 0:
         return keep
     from scipy.spatial import cKDTree
@@ -103,6 +161,28 @@ def object_points(
     touching = np.bincount(sub, weights=np.isfinite(dist).astype(np.float64)) > 0
     keep[eligible[touching[sub]]] = True
     return keep
+
+
+#: Kept points (nearest in XY) whose highest bounds a scattered point.
+TOP_NEIGHBOURS = 4
+
+
+def local_top(
+    xyz: NDArray[np.float64], at: NDArray[np.float64], radius_m: float
+) -> NDArray[np.float64]:
+    """Height of the surface of ``xyz`` at each XY of ``at``.
+
+    The highest of the :data:`TOP_NEIGHBOURS` points of ``xyz`` nearest in
+    XY (a wall's face points stand under its top: the highest of a few), of
+    those within ``radius_m``; ``-inf`` where none is.
+    """
+    from scipy.spatial import cKDTree
+
+    k = min(TOP_NEIGHBOURS, len(xyz))
+    _, idx = cKDTree(xyz[:, :2]).query(at, k=k, distance_upper_bound=radius_m)
+    idx = np.asarray(idx).reshape(len(at), k)
+    z = np.append(xyz[:, 2], -np.inf)[idx]  # idx == len(xyz) where none is within the radius
+    return z.max(axis=1)
 
 
 def select_clusters(

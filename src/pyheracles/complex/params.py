@@ -14,6 +14,10 @@ GROUND_METHODS = ("auto", "csf", "smrf", "none", "class")
 CLUSTERING = ("auto", "exact", "voxel")
 #: Above this many candidate points, ``clustering="auto"`` uses voxels.
 EXACT_LIMIT = 20_000
+#: Automatic buffer of the cookie-cutter, metres (see ``ComplexParams.buffer_m``).
+AUTO_BUFFER_M = 1.0
+#: Floor of the automatic ``min_cluster_points``.
+MIN_OBJECT_POINTS = 5
 #: Points used at most for a polygon's ground level or height percentile.
 LEVEL_SAMPLE = 20_000
 
@@ -31,13 +35,16 @@ class ComplexParams:
     buffer_m
         Buffer around each polygon for the 2.5D cookie-cutter, metres.  It
         absorbs digitising errors and catches facade points outside the
-        footprint.  Automatic: ``max(1.0, 3 s)``.
+        footprint.  Automatic: 1 m at any density (digitising errors do not
+        grow with the spacing; 3 spacings, 5-7 m at 0.1-0.2 points/m^2, took
+        the crowns and clutter around small buildings and walls).
     cluster_distance_m
         Largest gap inside one object for the Euclidean clustering, metres.
         Automatic: ``max(0.3, 3 s)``.
     min_cluster_points
         Clusters with fewer points are noise and go back to the pool.
-        Automatic: the number of points on about 1 m^2, at least 10.
+        Automatic: the number of points on about 1 m^2, at least 5 (a small
+        building at 0.15 points/m^2 has 10-15 points).
     keep_fraction
         A cluster other than the main one is kept when at least this fraction
         of its points lies inside the (unbuffered) polygon.
@@ -54,10 +61,38 @@ class ComplexParams:
         Lower surface-variation threshold for points of multi-echo pulses
         (LAS ``number_of_returns > 1``; used only when the cloud has it):
         the laser went partly through, as in foliage.  ``None`` ignores echoes.
+    porous_echoes
+        Use the echoes (LAS ``return_number`` and ``number_of_returns``, when
+        the cloud has both): a point amid pass-through points (returns that
+        are not the last of their pulse: the laser went on beyond them) lies
+        on a porous surface, foliage, and counts as scattered, at any density
+        (the surface variation needs a dozen neighbours on one surface, more
+        than a sparse roof has).  Such points join an object only up to
+        ``scatter_rise_m`` above its surface beside them.
+    porous_share
+        A point is porous when at least this share of it and its 16 nearest
+        candidates (3D) are pass-through: a crown's last returns lie amid its
+        pass-through returns; a roof's eave line (pass-through returns on an
+        edge) and a roof under a crown amid the roof's last returns (see
+        :func:`pyheracles.complex.clusters.porous_points`).  ``None``: every
+        pass-through point and no other.
     attach_distance_m
         Scattered points are linked to an object by steps of up to twice
         this distance, and may rise this much above its top.  Automatic: the
         clustering distance.
+    scatter_above_top_m
+        Scattered points join an object at most this much above its top (the
+        99th percentile of its points' heights) and at most
+        ``attach_distance_m``: the edges of a roof do not rise higher on a
+        sparse survey (3 spacings let crowns 3-7 m above small roofs in at
+        0.1-1 points/m^2).  Metres; ``None``: ``attach_distance_m`` alone.
+    scatter_rise_m
+        Porous points (with ``porous_echoes``) join an object only up to this
+        height above the highest of its 4 kept points nearest in XY: a crown
+        over a roof rises above the roof beside it.  Rough solid parts (a
+        dormer's edges) are held to the object-wide limit only (its top plus
+        ``attach_distance_m``).  Metres; ``None`` holds porous points to that
+        limit too.
     scatter_offset_m
         Scattered points join an object only within this XY distance of its
         polygon (inside counts as 0): roof edges and eaves, not the hedge or
@@ -92,8 +127,12 @@ class ComplexParams:
     keep_fraction: float = 0.25
     scatter_max: float | None = 0.1
     multi_echo_scatter_max: float | None = 0.02
+    porous_echoes: bool = True
+    porous_share: float | None = 0.5
     attach_distance_m: float | None = None
     scatter_offset_m: float | None = None
+    scatter_above_top_m: float | None = 1.0
+    scatter_rise_m: float | None = 0.5
     ground: str = "auto"
     raised_ground_m: float | None = 0.2
     layer_order: tuple[str, ...] | None = None
@@ -113,10 +152,16 @@ class ComplexParams:
             value = getattr(self, name)
             if value is not None and not value > 0:
                 raise InputError(f"{name} must be > 0, got {value}")
+        if self.scatter_above_top_m is not None and not self.scatter_above_top_m >= 0:
+            raise InputError(f"scatter_above_top_m must be >= 0, got {self.scatter_above_top_m}")
+        if self.scatter_rise_m is not None and not self.scatter_rise_m >= 0:
+            raise InputError(f"scatter_rise_m must be >= 0, got {self.scatter_rise_m}")
         if self.scatter_offset_m is not None and not self.scatter_offset_m >= 0:
             raise InputError(f"scatter_offset_m must be >= 0, got {self.scatter_offset_m}")
         if self.min_cluster_points is not None and self.min_cluster_points < 1:
             raise InputError(f"min_cluster_points must be >= 1, got {self.min_cluster_points}")
+        if self.porous_share is not None and not 0.0 < self.porous_share <= 1.0:
+            raise InputError(f"porous_share must be in (0, 1], got {self.porous_share}")
         if not 0.0 <= self.keep_fraction <= 1.0:
             raise InputError(f"keep_fraction must be in [0, 1], got {self.keep_fraction}")
 
@@ -126,7 +171,7 @@ def resolve_params(params: ComplexParams, spacing_m: float) -> ComplexParams:
     s = float(spacing_m)
     return replace(
         params,
-        buffer_m=params.buffer_m if params.buffer_m is not None else max(1.0, 3.0 * s),
+        buffer_m=params.buffer_m if params.buffer_m is not None else AUTO_BUFFER_M,
         cluster_distance_m=(
             params.cluster_distance_m
             if params.cluster_distance_m is not None
@@ -138,12 +183,12 @@ def resolve_params(params: ComplexParams, spacing_m: float) -> ComplexParams:
         scatter_offset_m=(
             params.scatter_offset_m
             if params.scatter_offset_m is not None
-            else 0.25 * (params.buffer_m if params.buffer_m is not None else max(1.0, 3.0 * s))
+            else 0.25 * (params.buffer_m if params.buffer_m is not None else AUTO_BUFFER_M)
         ),
         min_cluster_points=(
             params.min_cluster_points
             if params.min_cluster_points is not None
-            else max(10, round(0.25 / max(s, 1e-3) ** 2))
+            else max(MIN_OBJECT_POINTS, round(0.25 / max(s, 1e-3) ** 2))
         ),
     )
 

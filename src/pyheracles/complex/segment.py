@@ -14,7 +14,7 @@ import shapely
 from numpy.typing import NDArray
 
 from pyheracles.cloud import PointCloud
-from pyheracles.complex.clusters import hull, object_points, scattered_points
+from pyheracles.complex.clusters import hull, object_points, porous_points, scattered_points
 from pyheracles.complex.cookie import GridIndex, claims, footprints_of, to_local
 from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
 from pyheracles.complex.params import ComplexParams, ComplexResult, resolve_params
@@ -79,6 +79,7 @@ class _Site:
     inside_any: NDArray[np.bool_]
     footprints: dict[str, list[NDArray[np.int64]]]
     multi_echo: NDArray[np.bool_] | None
+    pass_through: NDArray[np.bool_] | None
     instance: NDArray[np.int32]
     class_id: NDArray[np.uint8]
 
@@ -107,12 +108,19 @@ def _segment_layer(
     pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
     bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
     levels = ground_level(geoms, xyz, site.ground, site.index, buffer + 5.0)
-    scattered = scattered_points(xyz, pts, rp, site.multi_echo)
+    porous = (
+        porous_points(xyz[pts], site.pass_through[pts], rp.porous_share)
+        if site.pass_through is not None and rp.porous_echoes
+        else None
+    )
+    scattered = scattered_points(xyz, pts, rp, site.multi_echo, porous)
     empty: list[Any] = []
     for k in range(len(geoms)):
         sl = slice(bounds[k], bounds[k + 1])
         cand, cand_dist = pts[sl], offpoly[sl]
-        keep = object_points(xyz, cand, cand_dist, scattered[sl], rp)
+        keep = object_points(
+            xyz, cand, cand_dist, scattered[sl], rp, None if porous is None else porous[sl]
+        )
         if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
             empty.append(gdf["source_fid"].iloc[k])
             continue
@@ -244,6 +252,7 @@ def segment_complex(
             if "number_of_returns" in cloud.attributes
             else None
         ),
+        pass_through=_pass_through(cloud),
         instance=np.zeros(n, dtype=np.int32),
         class_id=np.zeros(n, dtype=np.uint8),
     )
@@ -268,6 +277,16 @@ def segment_complex(
     )  # fmt: skip
     seg.check_balance()
     return ComplexResult(seg, rp, spacing, order, timings)
+
+
+def _pass_through(cloud: PointCloud) -> NDArray[np.bool_] | None:
+    """Points the pulse went on beyond (not its last return), or ``None`` without echoes."""
+    attrs = cloud.attributes
+    if "return_number" not in attrs or "number_of_returns" not in attrs:
+        return None
+    rn = np.asarray(attrs["return_number"])
+    # return number 0 is invalid in LAS: such a file says nothing about its pulses
+    return (rn >= 1) & (rn < np.asarray(attrs["number_of_returns"]))
 
 
 _RESERVED = {

@@ -56,7 +56,7 @@ __all__ = [
 ]
 
 #: The dimensions phase 1 reads besides x, y, z (the ground filter's and step 1's).
-BUFFER_DIMS = ("number_of_returns", "classification")
+BUFFER_DIMS = ("return_number", "number_of_returns", "classification")
 
 
 # ----------------------------------------------------------------------------- phase 0
