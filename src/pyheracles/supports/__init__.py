@@ -48,8 +48,12 @@ This module keeps that structure and fixes the failures the thesis reports:
    a plinth band reaches its corners, a fence rail or a chair in a few sectors
    does not move it).  A final voxel clustering at the support's own scan-line
    gap keeps what is connected to the section island; a pier joined to a wall
-   in most of its height layers is a wall edge (a jamb), and a support carrying
-   nothing must be ``min_free_height_m`` tall (broken columns); everything
+   in most of its height layers, or standing in a wall face that runs on beyond both
+   its ends (or round a corner) at its foot, is a wall edge (a jamb, the wall
+   between two windows); a support carrying nothing must be ``min_free_height_m``
+   tall (broken columns), a pier carrying nothing a prism as wide as its section
+   (not a lying drum), a column carrying nothing at least 0.3 x the radius of the
+   thickest column that carries (not a post or a pulpit's stem); everything
    rejected goes back to the pool.
 6. **Primitives** -- cylinder (axis, radius, height, RMS) for columns and
    engaged columns, oriented box (dimensions, RMS) for piers.

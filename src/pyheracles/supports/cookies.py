@@ -3,6 +3,8 @@ clutter off, final clustering."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -10,6 +12,14 @@ from scipy.spatial import cKDTree
 from pyheracles.geometry.sections import sort_order
 from pyheracles.segment.euclidean import voxel_clusters
 from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.piers import (
+    FOOT_FROM_M,
+    FOOT_REACH_M,
+    FOOT_TO_M,
+    MAX_NARROW_LAYERS,
+    foot_on_wall_line,
+    narrow_share,
+)
 from pyheracles.supports.profile import (
     attached_share,
     band_reach,
@@ -141,9 +151,17 @@ def extract_support(
     sc: Scales,
     h_sec: float,
     z_range: tuple[float, float],
+    height_band: Callable[[float, float], NDArray[np.intp]] | None = None,
 ) -> tuple[NDArray[np.intp], Array, Array] | None:
     """The points of one support inside its cookie (indices, offsets, coordinates), or
     None if it is not one.
+
+    ``height_band(z_lo, z_hi)`` gives the indices of the points of ``p`` between two
+    heights (a slice of the sorted heights): with it, a pier candidate whose foot stands
+    in a wall face (:func:`~pyheracles.supports.piers.foot_on_wall_line`) is a wall
+    piece.  A pier that carries nothing must be a prism as wide as its section
+    (:func:`~pyheracles.supports.piers.narrow_share`: a lying drum is not).  Sets
+    ``sh["carries"]`` (whether a carried surface was found above it).
 
     From the floor under it (off by the floor's own noise) up to the underside of what it
     carries (:func:`~pyheracles.supports.profile.carried_surface`; the points above the
@@ -220,7 +238,11 @@ def extract_support(
         share = attached_share(
             pts[free, :2], z[free], rho[free], sh["centre"], sh["buffer"], RING_M, sc, (lo, hi)
         )
-        if share > MAX_ATTACHED_SHARE and sh["class"] == "pier":
+        if sh["class"] == "pier" and (
+            share > MAX_ATTACHED_SHARE
+            or wall_at_foot(p, pts, rho, sh, sc, h_sec, floor_z, height_band)
+        ):  # joined to a wall in most layers, or the wall runs on from its foot: a wall
+            # piece between openings (tall windows with low sills)
             sh["wall_edge"] = True
             return None
         if share > MAX_ATTACHED_SHARE:
@@ -238,8 +260,15 @@ def extract_support(
         need = params.min_height_fraction * (top_z - floor_z)
     else:  # carries nothing: a broken column or one under the open sky
         need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
+    sh["carries"] = bool(np.isfinite(top_z))
     if height < need:
         return None  # a chair, a sign board, a fence post: not a support
+    if (
+        sh["class"] == "pier"
+        and not sh["carries"]
+        and narrow_share(cpts[:, :2], cpts[:, 2], sh, sc.tol, cell) > MAX_NARROW_LAYERS
+    ):
+        return None  # carries nothing and is no prism: a lying drum, debris
     return cidx, crho, cpts
 
 
@@ -265,3 +294,43 @@ def offset(xy: Array, sh: dict) -> tuple[Array, Array]:
     u, v = q @ np.array([c, s]), q @ np.array([-s, c])
     a, b = sh["half"]
     return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)
+
+
+#: Foot points this close to a pier candidate's outline are its own (plinth, base), metres.
+FOOT_OWN_M = 0.15
+
+
+def wall_at_foot(
+    p: Array,
+    pts: Array,
+    rho: Array,
+    sh: dict,
+    sc: Scales,
+    h_sec: float,
+    floor_z: float,
+    height_band: Callable[[float, float], NDArray[np.intp]] | None,
+) -> bool:
+    """Whether a pier candidate's foot stands in a wall face
+    (:func:`~pyheracles.supports.piers.foot_on_wall_line`) among the points of ``p`` in
+    its foot band (from ``height_band``) within ``FOOT_REACH_M`` of its outline and
+    beyond ``FOOT_OWN_M`` of it; ``pts``, ``rho`` are the cookie's points and offsets."""
+    own = own_section(rho, pts[:, 2], h_sec, sc)
+    if height_band is None or np.count_nonzero(own) < 10:
+        return False
+    band = height_band(floor_z + FOOT_FROM_M, floor_z + FOOT_TO_M)
+    q = np.take(p, band, axis=0)
+    reach = float(np.hypot(*sh["half"])) + FOOT_REACH_M
+    near = np.flatnonzero(np.max(np.abs(q[:, :2] - sh["centre"]), axis=1) <= reach)
+    q = q[near]
+    r_off, _ = offset(q[:, :2], sh)
+    q = q[(r_off > max(FOOT_OWN_M, 2.0 * sc.tol)) & (r_off <= FOOT_REACH_M)]
+    cell = max(0.05, 3.0 * sc.spacing)
+    layer = np.floor((q[:, 2] - floor_z - FOOT_FROM_M) / cell).astype(np.int64)
+    rng = np.random.default_rng(0)
+    c = sh["centre"]
+    return foot_on_wall_line(q[:, :2] - c, layer, pts[own, :2] - c, sc.tol, cell, rng)
+
+
+def own_section(rho: Array, z: Array, h_sec: float, sc: Scales) -> NDArray[np.bool_]:
+    """A support's own surface points in its section slab: within ``tol`` of its shape."""
+    return (np.abs(z - h_sec) <= sc.thickness / 2) & (rho <= sc.tol)

@@ -208,12 +208,18 @@ def detect_supports_checked(
     # 3. cookie-cutter: the points around each shape, overlaps to the nearest shape
     cut = cookies(p, shapes, params)
     # 4. per support: floor and ceiling off, clutter off, final clustering, primitive
+
+    def band(z_lo: float, z_hi: float) -> NDArray[np.intp]:  # points between two heights
+        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
+        return order[a:b]
+
     instance = np.zeros(n, dtype=np.int32)
     rows = []
     rejected: list[str] = []
+    members: list[tuple[NDArray[np.intp], bool]] = []  # per row: its points, carries?
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
-        kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1))
+        kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
         if kept is None:
             continue
         cidx, crho, cpts = kept
@@ -233,7 +239,18 @@ def detect_supports_checked(
             rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
             continue
         rows.append(row)
-        instance[cidx] = len(rows)
+        members.append((cidx, bool(sh.get("carries", True))))
+    thin = thin_free_columns(rows, [c for _, c in members])
+    if thin:
+        notes.append(
+            f"{len(thin)} round candidate{'s' if len(thin) > 1 else ''} carrying nothing and "
+            f"thinner than {THIN_FREE_SHARE:g} x the radius of the columns that carry "
+            "(posts, the stems of pulpits and stands, not broken columns): not supports"
+        )
+        rows = [r for k, r in enumerate(rows) if k not in thin]
+        members = [m for k, m in enumerate(members) if k not in thin]
+    for k, (cidx, _) in enumerate(members):
+        instance[cidx] = k + 1
     if rejected:
         notes.append(
             f"{len(rejected)} support candidate{'s' if len(rejected) > 1 else ''} rejected, "
@@ -253,6 +270,28 @@ def detect_supports_checked(
     if not rows:
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+#: A column that carries nothing (a broken column, one under the open sky) is one of the
+#: building's columns: at least this share of the radius of the thickest column that
+#: carries something (the groups of a building differ by 0.45-0.85 in radius; a post,
+#: the stem of a pulpit or a lamp stand beside 1 m columns is a tenth of theirs).
+THIN_FREE_SHARE = 0.3
+
+
+def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
+    """Indices of the columns carrying nothing thinner than ``THIN_FREE_SHARE`` x the
+    radius of the thickest column that carries (none when no column carries)."""
+    carried = [r["radius_m"] for r, c in zip(rows, carries, strict=True)
+               if c and r["class"] == "column" and np.isfinite(r["radius_m"])]  # fmt: skip
+    if not carried:
+        return set()
+    limit = THIN_FREE_SHARE * max(carried)
+    return {
+        k
+        for k, (r, c) in enumerate(zip(rows, carries, strict=True))
+        if not c and r["class"] == "column" and r["radius_m"] < limit
+    }
 
 
 def clear_of(sh: dict, shapes: list[dict]) -> bool:

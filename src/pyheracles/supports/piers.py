@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.supports.core import Array, Island, trimmed_rms
@@ -106,3 +107,178 @@ def in_wall_line(isl: Island, wall_xy: Array, tol: float, bin_m: float) -> bool:
             if np.count_nonzero(on) >= need and len(np.unique(np.floor(along[on] / bin_m))) >= need:
                 return True
     return False
+
+
+#: The foot of a support: the band from this far above its floor ...
+FOOT_FROM_M = 0.1
+#: ... up to this far (below the sill of any window, above the floor's noise), metres.
+FOOT_TO_M = 0.5
+#: The wall beside a wall piece's foot is looked for this far beyond its outline, metres.
+FOOT_REACH_M = 1.5
+#: A wall face runs on beside a wall piece's foot over at least this length, metres.
+FOOT_COVER_M = 0.3
+#: Two walls meet at a corner piece: their directions at least 45 degrees apart.
+CORNER_COS = float(np.cos(np.radians(45.0)))
+
+
+def face_lines(
+    q: Array, tol: float, rng: np.random.Generator, n_lines: int = 2, trials: int = 200
+) -> list[tuple[Array, float, NDArray[np.bool_]]]:
+    """The ``n_lines`` straight lines holding most of the points ``q`` (within ``tol``):
+    ``(unit direction, offset along the normal, inliers)``, greedy, largest first."""
+    out = []
+    rest = np.ones(len(q), dtype=bool)
+    for _ in range(n_lines):
+        p = q[rest]
+        if len(p) < 10:
+            break
+        pick = rng.integers(0, len(p), size=(trials, 2))
+        dv = p[pick[:, 1]] - p[pick[:, 0]]
+        ln = np.hypot(dv[:, 0], dv[:, 1])
+        ok = ln > 4.0 * tol  # pairs far enough apart to give a direction
+        if not ok.any():
+            break
+        dv = dv[ok] / ln[ok, None]
+        nrm = np.c_[-dv[:, 1], dv[:, 0]]
+        off = np.einsum("ij,ij->i", nrm, p[pick[ok, 0]])
+        score = (np.abs(p @ nrm.T - off) <= tol).sum(axis=0)
+        b = int(np.argmax(score))
+        inl = np.zeros(len(q), dtype=bool)
+        inl[np.flatnonzero(rest)[np.abs(p @ nrm[b] - off[b]) <= tol]] = True
+        out.append((dv[b], float(off[b]), inl))
+        rest &= ~inl
+    return out
+
+
+def foot_on_wall_line(
+    foot_xy: Array,
+    foot_layer: NDArray[np.int64],
+    own_xy: Array,
+    tol: float,
+    cell: float,
+    rng: np.random.Generator,
+) -> bool:
+    """A pier candidate is a piece of a wall when a wall face runs on, flush with one of
+    its faces, at its foot.
+
+    The piece of a wall between two windows stands free from the sill up to the lintel
+    (tall windows with low sills leave it joined to the wall in a few height layers
+    only, and a section between sill and lintel cuts it off like a pier); below the
+    sills the wall goes on, flush with its faces.  A pier stands free at its foot: the
+    floor around it is open (a fence on its axis, a bench touching it, the wall behind
+    an anta 10 cm inside its face are not flush with a face).
+
+    Parameters
+    ----------
+    foot_xy, foot_layer
+        Points of the foot band (:data:`FOOT_FROM_M` to :data:`FOOT_TO_M` above the
+        candidate's floor) within :data:`FOOT_REACH_M` of its outline, and their height
+        layer (of ``cell``) in the band.
+    own_xy
+        The candidate's own surface points at its section (its faces).
+    tol, cell
+        Surface tolerance and layer / bin size, metres.
+    rng
+        Random generator of the line search.
+
+    Returns
+    -------
+    bool
+        Whether one of the three main lines of the foot points runs on the line of the
+        candidate's own outermost face points across it (within ``tol``: flush with a
+        face; the section rectangle of an L-shaped wall piece is turned, its faces are
+        not) and covers :data:`FOOT_COVER_M` of that line beyond both of the candidate's
+        ends in at least half the layers of the band (a piece between two openings), or
+        two such lines at least 45 degrees apart beyond one end each (a corner piece).
+        A wall ending flush in a pier beyond one end only is an anta's (a low cella
+        wall ending in a pier that carries the pediment): the pier stays a pier.
+    """
+    if len(foot_xy) < 20 or len(own_xy) < 10:
+        return False
+    n_layers = max(1, int(np.ceil((FOOT_TO_M - FOOT_FROM_M) / cell)))
+    need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
+    one_end: list[Array] = []  # directions of the flush lines walled beyond one end
+    for d, off, inl in face_lines(foot_xy, tol, rng, n_lines=3):
+        nrm = np.array([-d[1], d[0]])
+        lo_ac, hi_ac = np.quantile(own_xy @ nrm, [0.02, 0.98])
+        if min(abs(lo_ac - off), abs(hi_ac - off)) > tol:
+            continue  # not flush with a face of the candidate
+        lo, hi = np.quantile(own_xy @ d, [0.02, 0.98])
+        f_al = foot_xy[inl] @ d
+        end = f_al > hi
+        dist = np.where(end, f_al - hi, lo - f_al)
+        beyond = dist > tol
+        if np.count_nonzero(beyond) < need:
+            continue
+        # per layer and per end, the bins of the line beyond the candidate holding points
+        key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
+            dist[beyond] / cell
+        ).astype(np.int64)
+        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
+        full = ids[counts >= need]  # (layer, end) pairs with the wall face covered
+        walled = [np.count_nonzero(full % 2 == e) >= 0.5 * n_layers for e in (0, 1)]
+        if all(walled):
+            return True  # the wall runs on beyond both ends: a piece between openings
+        if any(walled):
+            if any(abs(float(d @ other)) < CORNER_COS for other in one_end):
+                return True  # two walls meeting at it: a corner piece
+            one_end.append(d)
+    return False
+    n_layers = max(1, int(np.ceil((FOOT_TO_M - FOOT_FROM_M) / cell)))
+    need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
+    for d, off, inl in face_lines(foot_xy, tol, rng):
+        nrm = np.array([-d[1], d[0]])
+        o_ac = own_xy @ nrm
+        lo_ac, hi_ac = np.quantile(o_ac, [0.02, 0.98])
+        if min(abs(lo_ac - off), abs(hi_ac - off)) > tol:
+            continue  # not flush with a face of the candidate
+        o_al = own_xy @ d
+        lo, hi = np.quantile(o_al, [0.02, 0.98])
+        f_al = foot_xy[inl] @ d
+        end = f_al > hi
+        dist = np.where(end, f_al - hi, lo - f_al)
+        beyond = dist > tol
+        if np.count_nonzero(beyond) < need:
+            continue
+        # per layer and per end, the bins of the line beyond the candidate holding points
+        key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
+            dist[beyond] / cell
+        ).astype(np.int64)
+        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
+        if len(np.unique(ids[counts >= need] // 2)) >= 0.5 * n_layers:
+            return True
+    return False
+
+
+#: A pier carrying nothing (a broken pier) must be a prism as wide as its section: a
+#: layer whose points stop short of both ends of the section rectangle along one of its
+#: axes, by more than this share of its half size (and a surface tolerance) at each
+#: end, is narrower than the section, as the end of a lying drum is above and below the
+#: chord the section cut (an occlusion shadow cuts one end).
+NARROW_SHARE = 0.2
+#: Largest share of the height layers of a pier carrying nothing narrower than its
+#: section.
+MAX_NARROW_LAYERS = 0.3
+
+
+def narrow_share(xy: Array, z: Array, sh: dict, tol: float, cell: float) -> float:
+    """Share of the height layers (of ``cell``) of a pier candidate's points (``xy``,
+    ``z``) narrower than its section rectangle (``sh``: ``centre``, ``angle``,
+    ``half``) at both ends of one of its axes (see :data:`NARROW_SHARE`), 0..1 (layers
+    of fewer than 10 points do not count)."""
+    if len(z) < 20:
+        return 0.0
+    c, s = np.cos(sh["angle"]), np.sin(sh["angle"])
+    q = xy - sh["centre"]
+    uv = np.c_[q @ np.array([c, s]), q @ np.array([-s, c])]
+    layer = np.floor((z - z.min()) / cell).astype(np.intp)
+    inner = (1.0 - NARROW_SHARE) * np.asarray(sh["half"], dtype=np.float64) - tol
+    narrow, counted = 0, 0
+    for k in np.unique(layer):  # a few dozen layers
+        sel = uv[layer == k]
+        if len(sel) < 10:
+            continue
+        counted += 1
+        lo, hi = np.quantile(sel, 0.02, axis=0), np.quantile(sel, 0.98, axis=0)
+        narrow += bool(np.any((lo > -inner) & (hi < inner)))
+    return narrow / counted if counted else 0.0
