@@ -222,3 +222,32 @@ def test_too_few_openings(n: int) -> None:
     src = _church([1.0, 1.3], [2.0, 2.6], rng)[:n]
     tgt = [_moved(o, T_TRUE, rng) for o in src]
     assert isinstance(match_openings(src, tgt), str)
+
+
+def test_lights_of_another_size_alone_do_not_decide() -> None:
+    """Seed 15 of the church family: a pose 0.7 deg / 8 cm off was accepted on three
+    agreeing outlines, two of them one light against a whole (mullioned) window.
+
+    Such a light slides along its partner's outline under the local fit, so it agrees
+    wherever it lands: with fewer than three openings of one size agreeing the match is
+    refused, and a light whose detection is off along its window is never evidence.
+    """
+    rng = np.random.default_rng(15)
+    widths = rng.uniform(0.9, 1.4, 4)
+    heights = rng.uniform(2.0, 3.5, 4)
+    src = _church(widths, heights, rng)
+    tgt = []
+    for k, o in enumerate(src):
+        if k in (0, 3):  # two windows seen whole from both sides
+            tgt.append(_moved(o, T_TRUE, rng))
+        elif k == 5:  # a third one of the same size, but only its jambs are seen
+            m = _moved(o, T_TRUE, rng)
+            jamb = np.abs((m.outline - m.centre) @ m.v) < 0.4 * m.height
+            tgt.append(replace(m, outline=m.outline[jamb], outline_normal=m.outline_normal[jamb]))
+        else:  # the other viewer finds one light, 6 cm off along the window
+            light = _opening(o.centre - (0.2 * o.width - 0.06) * o.h, o.normal, 0.6 * o.width,
+                             o.height, rng, face=o.face)  # fmt: skip
+            tgt.append(_moved(light, T_TRUE, rng))
+    m = match_openings(src, tgt)
+    assert isinstance(m, str), m
+    assert "of one size" in m

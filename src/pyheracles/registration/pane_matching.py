@@ -72,7 +72,8 @@ class MatchParams:
     fine_tolerance_m
         An opening's outline agrees when the median point-to-line distance is below it.
     min_openings
-        Fewest matched openings for a solution.
+        Fewest matched openings of one size whose outlines agree for a solution
+        (agreeing outlines of another size add tie points, not evidence).
     ambiguity_ratio
         A runner-up with at least this share of the best's agreeing openings (and at
         least ``min_openings``) makes the solution ambiguous.
@@ -481,12 +482,20 @@ def match_openings(
         if bad > p.max_contradiction * good.sum():
             n_contradicted += 1
             continue
-        best_good = max(best_good, int(good.sum()))
-        if good.sum() < p.min_openings:
+        # evidence: agreeing outlines of openings of one size; an agreeing outline of
+        # another size (one light of a mullioned window against the whole window, an
+        # outline seen in part) fixes the pose only in part and may slide along its
+        # partner: it adds tie points but does not count towards ``min_openings``
+        n_verified = int((good & sizes_agree).sum())
+        best_good = max(best_good, n_verified)
+        if n_verified < p.min_openings:
             continue
         results.append((int(good.sum()), T, pairs[good], rms[good], local[good], len(cl), bad))
     if not results and best_good > 0:
-        return f"only {best_good} openings whose outlines agree (at least {p.min_openings} needed)"
+        return (
+            f"only {best_good} openings of one size whose outlines agree "
+            f"(at least {p.min_openings} needed)"
+        )
     if not results:
         return (
             f"no hypothesis explains enough openings ({n_mirrored} mirrored, "

@@ -5,9 +5,11 @@ A heritage window is a pane recessed behind a wall face inside an opening
 curve both an exterior and an interior cloud see: the outer reveal ends on the
 glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
 
-1. **Wall faces** - points on a voxel grid, PCA normals; the vertical ones are
-   voted into a (normal azimuth, offset) histogram and the faces taken peak by peak
-   (no global RANSAC budget spent on ground and roof).
+1. **Wall faces** - points on a voxel grid, PCA normals; the cloud's own vertical
+   refined from its walls (a levelling error of a degree bends a tall wall out of a
+   vertical plane by more than a face band); the vertical ones are voted into a
+   (normal azimuth, offset) histogram and the faces taken peak by peak (no global
+   RANSAC budget spent on ground and roof).
 2. **Openings** - each face rasterised with cells sized from its own point spacing;
    empty regions enclosed by the face (not touching its border: doors reaching the
    floor are excluded) are candidate openings.
@@ -15,9 +17,9 @@ glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
    has reveal points behind the face (shadows of furniture have none).  A filled,
    dense, planar patch at depth is a door leaf or a panel, not glass (glass
    returns few, weak points; photogrammetry none).
-4. **Pane depth** - the glass points (a sparse plane parallel to the face) where
-   there are some, else the depth where the reveals end; the mid-plane lies half the
-   glass thickness further.
+4. **Pane depth** - the glass points (a sparse plane parallel to the face, the layer
+   spreading over most of the opening) where there are some, else the depth where the
+   reveals end; the mid-plane lies half the glass thickness further.
 5. **Outline** - each reveal point slid along its tangent plane onto the mid-plane
    (a straight reveal projects, a splayed one is followed down to the glass); any
    outline shape (rectangular, round-headed, pointed, leaded).  The opening's size and
@@ -25,12 +27,13 @@ glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
    viewer leaves the outline partial, the glass still fills the opening).
 
 Assumptions (documented limits): the cloud is metric and roughly levelled (``up``
-within a few degrees of the vertical) and the glass thickness is known.
+within ``max_level_deg`` of the vertical, walls of two directions at least to refine
+it) and the glass thickness is known.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,7 +42,7 @@ from scipy.spatial import cKDTree
 
 from pyheracles.geometry.neighbours import estimate_normals
 
-__all__ = ["Opening", "PaneParams", "detect_openings", "voxel_centroids"]
+__all__ = ["Opening", "PaneParams", "detect_openings", "estimate_up", "voxel_centroids"]
 
 Array = NDArray[np.float64]
 
@@ -87,12 +90,22 @@ class PaneParams:
         Points of one opening's recess used at most (regularly thinned beyond).
     min_outline_points
         Reveal points taken for the outline at least (the band grows to hold them).
+    min_glass_points
+        Fewest points of a glass layer for the pane depth (fewer: the depth where the
+        reveals end).  A sparse exterior TLS sees 20-30 returns on a high light.
     min_glass_extent_points
         With at least this many glass points the opening's size and centre span both
         the outline and the glass (a reveal hidden from the viewer leaves the outline
         partial; the glass still fills the opening).
     up
-        Vertical direction.
+        Vertical direction (a prior: see ``level``).
+    level
+        Refine ``up`` from the cloud's own walls (:func:`estimate_up`) before the face
+        search: a cloud tilted by a degree bends a 5 m wall 9 cm out of a vertical
+        plane, more than ``face_band_m``, and its faces break into bands that hide the
+        openings.
+    max_level_deg
+        Largest correction of ``up`` accepted from the walls.
     """
 
     search_voxel_m: float = 0.08
@@ -117,8 +130,11 @@ class PaneParams:
     outline_band_m: float = 0.25
     max_recess_points: int = 20000
     min_outline_points: int = 300
+    min_glass_points: int = 20
     min_glass_extent_points: int = 30
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    level: bool = True
+    max_level_deg: float = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,6 +189,49 @@ def voxel_centroids(xyz: Array, voxel_m: float) -> Array:
     return out / cnt[:, None]
 
 
+def estimate_up(
+    normals: Array, prior: Array, tolerance: float = 0.2, iterations: int = 6
+) -> Array | None:
+    """The vertical of a cloud from its walls: the direction most normal to their normals.
+
+    Unit normals within ``tolerance`` (``|n . up|``) of the horizontal are walls; the
+    vertical is the eigenvector of the smallest eigenvalue of their second-moment
+    matrix, re-estimated on the normals within three robust spreads of it (reveals,
+    splays and noisy edge normals drop out).
+
+    Parameters
+    ----------
+    normals
+        ``(N, 3)`` unit normals (sign free).
+    prior
+        Unit vertical to start from.
+    tolerance
+        First wall selection (``|n . prior|`` below it).
+    iterations
+        Trimmed re-estimates.
+
+    Returns
+    -------
+    ndarray or None
+        The unit vertical on the side of ``prior``; ``None`` when the walls do not fix
+        it (fewer than 100 wall normals, or walls of one azimuth only: the direction
+        along them is then free).
+    """
+    up = np.asarray(prior, float) / np.linalg.norm(prior)
+    tol = tolerance
+    for _ in range(iterations):  # a few trimmed eigen-solves of a 3 x 3 matrix
+        N = normals[np.abs(normals @ up) < tol]
+        if len(N) < 100:
+            return None
+        ev, vec = np.linalg.eigh(N.T @ N / len(N))
+        if ev[1] < 10 * ev[0] + 0.01:  # one wall direction: the vertical is not fixed
+            return None
+        u = vec[:, 0] * np.sign(vec[:, 0] @ up)
+        tol = max(3 * 1.4826 * float(np.median(np.abs(N @ u))), 0.01)
+        up = u
+    return up
+
+
 # ----------------------------------------------------------------------------- faces
 def _faces(vox: Array, normals: Array, p: PaneParams) -> list[tuple[Array, float]]:
     """Vertical planes (unit normal, offset) of centred voxels, peak by peak."""
@@ -191,22 +250,29 @@ def _faces(vox: Array, normals: Array, p: PaneParams) -> list[tuple[Array, float
     off = np.einsum("ij,ij->i", canon, vox[idx])
     na = round(180.0 / p.azimuth_bin_deg)
     ia = np.minimum((az / np.pi * na).astype(int), na - 1)
-    o0 = off.min()
-    io = ((off - o0) / p.offset_bin_m).astype(int)
-    no = io.max() + 1
+    # offsets on a grid symmetric about 0: across the azimuth wrap (0 = 180 deg) the
+    # canonical normal flips, and offset bin ``b`` becomes ``no - 1 - b``
+    half = float(np.abs(off).max()) + p.offset_bin_m
+    no = int(np.ceil(2 * half / p.offset_bin_m))
+    io = np.clip(((off + half) / p.offset_bin_m).astype(int), 0, no - 1)
     alive = np.ones(len(idx), bool)
     faces = []
     for _ in range(p.max_faces):  # tens of faces, one histogram each
         hist = np.bincount(ia[alive] * no + io[alive], minlength=na * no).reshape(na, no)
-        # 3x3 sums (azimuth wraps) so that a face split over two bins still peaks
-        sm = ndimage.uniform_filter(hist.astype(float), size=3, mode=("wrap", "constant")) * 9
+        # 3x3 sums so that a face split over two bins still peaks; the azimuth wraps
+        # with the offsets mirrored (a face at 0.5 deg and one at 179.5 deg are one
+        # direction, the second's offsets negated)
+        padded = np.vstack([hist[-1:, ::-1], hist, hist[:1, ::-1]]).astype(float)
+        sm = ndimage.uniform_filter(padded, size=3, mode="constant")[1:-1] * 9
         k = int(np.argmax(sm))
         if sm.flat[k] < p.face_min_points:
             break
         a0, b0 = divmod(k, no)
         da = np.abs(ia - a0)
+        wrapped = da > na - da
         da = np.minimum(da, na - da)
-        cand = alive & (da <= 2) & (np.abs(io - b0) <= 1)
+        ib = np.where(wrapped, no - 1 - io, io)
+        cand = alive & (da <= 2) & (np.abs(ib - b0) <= 1)
         pts = vox[idx[cand]]
         # least squares plane through the candidates, then its band
         c = pts.mean(axis=0)
@@ -276,18 +342,39 @@ def _two_face_depth(g: Array, thickness: float, iterations: int = 30) -> float:
 
 
 def _pane_depth(
-    depth: Array, pane_like: NDArray[np.bool_], reveal_like: NDArray[np.bool_], thickness: float
+    depth: Array,
+    pane_like: NDArray[np.bool_],
+    reveal_like: NDArray[np.bool_],
+    thickness: float,
+    cells: NDArray[np.int_] | None = None,
+    min_glass: int = 20,
 ) -> tuple[float | None, int]:
-    """Depth of the near glass face: the glass points' slab, else where the reveals end."""
+    """Depth of the near glass face: the glass points' slab, else where the reveals end.
+
+    Several layers parallel to the face may hold points (the glass, but also a
+    pointed head's intrados or a mullion seen edge-on from below); the glass is the
+    one that spreads over the opening, so with ``cells`` (the opening's raster cell
+    of every point, -1 outside) the layer covering most cells is taken.
+    """
     g = depth[pane_like]
-    if len(g) >= 30:
+    gc = cells[pane_like] if cells is not None else np.arange(len(g))
+    if len(g) >= min_glass:
         hist, edges = np.histogram(g, bins=np.arange(0.0, g.max() + 0.02, 0.01))
-        if len(hist):
-            k = int(np.argmax(hist))
+        best: tuple[int, int, Array] | None = None
+        for k in np.argsort(-hist)[:6]:  # the few strongest layers
+            if hist[k] == 0:
+                break
             peak = 0.5 * (edges[k] + edges[k + 1])
-            near = g[np.abs(g - peak) < thickness + 0.02]
-            if len(near) >= 30 and len(near) > 0.3 * len(g):
-                return _two_face_depth(near, thickness), len(near)
+            sel = np.abs(g - peak) < thickness + 0.02
+            near = g[sel]
+            if len(near) < min_glass or len(near) <= 0.3 * len(g):
+                continue
+            covered = gc[sel]
+            score = (len(np.unique(covered[covered >= 0])), len(near))
+            if best is None or score > best[:2]:
+                best = (*score, near)
+        if best is not None:
+            return _two_face_depth(best[2], thickness), len(best[2])
     r = np.sort(depth[reveal_like])
     if len(r) < 20:
         return None, 0
@@ -352,7 +439,14 @@ def _opening(
     cosn = np.abs(nrm @ e)
     pane_like = cosn > 0.9
     reveal_like = cosn < 0.95  # splayed reveals stand up to about 70 deg off the face
-    depth_g, n_glass = _pane_depth(dd, pane_like, reveal_like, p.pane_thickness_m)
+    ci = np.floor((pts @ h - lo[0]) / cell).astype(int)
+    cj = np.floor((pts @ v - lo[1]) / cell).astype(int)
+    okc = (ci >= 0) & (ci < mask.shape[0]) & (cj >= 0) & (cj < mask.shape[1])
+    cells = np.where(okc, ci * mask.shape[1] + cj, -1)
+    cells[okc] = np.where(grow[ci[okc], cj[okc]], cells[okc], -1)
+    depth_g, n_glass = _pane_depth(
+        dd, pane_like, reveal_like, p.pane_thickness_m, cells, p.min_glass_points
+    )
     if depth_g is None or depth_g < 0.03:
         return None
     mid = depth_g + p.pane_thickness_m / 2
@@ -452,6 +546,11 @@ def detect_openings(
         return []
     c0 = coarse.mean(axis=0)  # votes on centred coordinates: offsets stay small
     normals, _ = estimate_normals(coarse - c0, k=12)
+    if p.level:
+        lev = estimate_up(normals, up, p.vertical_tolerance)
+        if lev is not None and lev @ up >= np.cos(np.deg2rad(p.max_level_deg)):
+            up = lev
+            p = replace(p, up=tuple(float(x) for x in up))
     vox = voxel_centroids(xyz, p.voxel_m)
     out: list[Opening] = []
     for fi, (n, d0) in enumerate(_faces(coarse - c0, normals, p)):  # tens of faces
