@@ -153,9 +153,7 @@ class GroundResult:
         return {"ground": self.n_ground, "off_ground": n - self.n_ground, "total": n}
 
 
-def aligned_grid(
-    xy: NDArray[np.float64], cell_m: float, origin_m: ArrayLike | None = None
-) -> Grid:
+def aligned_grid(xy: NDArray[np.float64], cell_m: float, origin_m: ArrayLike | None = None) -> Grid:
     """The smallest grid holding ``xy`` whose cell edges are world-aligned.
 
     The edges lie on the multiples of ``cell_m`` in world coordinates (plus

@@ -37,9 +37,11 @@ from pyheracles.groundfilters.surface import (
 
 __all__ = [
     "SMRFParams",
+    "joined_patches",
     "low_clusters",
     "low_outliers",
     "opening",
+    "plane_misfit",
     "progressive_filter",
     "smrf",
     "terrain_slope_raster",
@@ -83,6 +85,25 @@ class SMRFParams:
         cells (3.0; on the terrain family 3 m against 5 m and no limit: the same mean
         total error on 1-3 m cells, while on ISPRS sample 11 (buildings on a steep
         slope) no limit raised it from 8.6 to 12.7 %).
+    join_share
+        Object test of the slope-aware seed stage (0 = off: every cell the slope allowance
+        keeps is kept). With it, the cells kept only thanks to the allowance form patches
+        (8-neighbour), and a patch is kept when at least this share of its border cells
+        lie within ``threshold_m`` of the plane fitted to the published-test ground
+        within ``join_radius_m`` around them (:func:`joined_patches`): crest and
+        terrace-edge ground continues the slope around it, a roof on a slope or a shrub
+        does not. Only used with ``terrain_slope_weight`` > 0.
+    join_radius_m
+        Half width of the window of that plane fit, metres, at least one cell (2.0).
+    edge_slope_allowance
+        Edge-of-raster allowance (False = off, as published). Beyond the raster's edges
+        the openings see the edge cells replicated, so terrain rising towards an edge at
+        slope ``s`` is lowered by an opening of radius ``r`` by ``s (r - d)`` at ``d``
+        cells from the edge and rejected as an object (ISPRS sample 23: 19 % of the
+        ground within 12 m of its east edge). With the allowance that drop is allowed on
+        top, ``s`` being the local terrain slope measured with the surface continued
+        beyond the edge by point reflection; the cells it keeps go through the object
+        test of ``join_share`` like those of ``terrain_slope_weight``.
     low_cluster_window_m
         Low outliers in clusters (0 = off: the published one-cell test only): cells of the
         minimum surface that a closing of radius up to this many metres raises by more
@@ -103,6 +124,9 @@ class SMRFParams:
     low_cluster_window_m: float = 0.0
     low_cluster_drop_m: float = 2.0
     terrain_slope_radius_m: float = 3.0
+    join_share: float = 0.0
+    join_radius_m: float = 2.0
+    edge_slope_allowance: bool = False
 
     def __post_init__(self) -> None:
         for name in ("cell_m", "window_m"):
@@ -117,10 +141,14 @@ class SMRFParams:
             "low_cluster_window_m",
             "low_cluster_drop_m",
             "terrain_slope_radius_m",
+            "join_share",
+            "join_radius_m",
         ):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InputError(f"SMRFParams.{name} must be >= 0, got {value!r}")
+        if self.join_share > 1:
+            raise InputError(f"SMRFParams.join_share must be <= 1, got {self.join_share!r}")
 
 
 def _disk_filter(surface: NDArray[np.float64], radius: int, op: str) -> NDArray[np.float64]:
@@ -173,6 +201,8 @@ def progressive_filter(
     extra_slope: NDArray[np.float64] | None = None,
     extra_max_radius: int = 0,
     active: NDArray[np.bool_] | None = None,
+    edge_slope: NDArray[np.float64] | None = None,
+    edge_distance: NDArray[np.float64] | None = None,
 ) -> NDArray[np.bool_]:
     """Cells flagged as objects by openings with growing disks (Pingel et al. 2013, eq. 1).
 
@@ -197,14 +227,28 @@ def progressive_filter(
         halo of twice the largest radius, :func:`_active_blocks`), so that its cost
         follows the data, not the bounding box (tiles on a diagonal); cells outside the
         boxes are not objects.
+    edge_slope, edge_distance
+        Terrain slope per cell (rise over run) for the raster's edges, and each cell's
+        distance to the nearest edge in cells (None = of this raster). Beyond the edge
+        the surface is replicated, so terrain rising towards an edge at slope ``s`` is
+        lowered by an opening of radius ``r`` by ``s (r - d)`` at ``d`` cells from the
+        edge, as if it were an object; with ``edge_slope`` that drop is allowed on top.
     """
+    if edge_slope is not None and edge_distance is None:
+        rows, cols = surface.shape
+        dr = np.minimum(np.arange(rows), np.arange(rows)[::-1]).astype(np.float64)
+        dc = np.minimum(np.arange(cols), np.arange(cols)[::-1]).astype(np.float64)
+        edge_distance = np.minimum.outer(dr, dc)
     if active is not None and active.mean() < _BLOCKWISE_MAX_SHARE:
 
         def run(window):
             sub_extra = None if extra_slope is None else extra_slope[window]
+            sub_edge = None if edge_slope is None else edge_slope[window]
+            sub_dist = None if edge_distance is None else edge_distance[window]
             return progressive_filter(
                 surface[window], slope=slope, max_radius=max_radius, cell_m=cell_m,
                 extra_slope=sub_extra, extra_max_radius=extra_max_radius,
+                edge_slope=sub_edge, edge_distance=sub_dist,
             )  # fmt: skip
 
         return _boxwise(run, active, 2 * max_radius + 2, np.zeros(surface.shape, dtype=bool))
@@ -215,6 +259,10 @@ def progressive_filter(
         allowed = slope * radius * cell_m
         if extra_slope is not None and radius <= extra_max_radius:
             allowed = allowed + extra_slope * (radius * cell_m)
+        if edge_slope is not None and edge_distance is not None:
+            near = np.maximum(0.0, radius - edge_distance)
+            if near.any():
+                allowed = allowed + edge_slope * (near * cell_m)
         is_object |= (last - opened) > allowed
         last = opened
     return is_object
@@ -298,19 +346,96 @@ def low_clusters(
 
 
 def terrain_slope_raster(
-    surface: NDArray[np.float64], *, max_radius: int, cell_m: float
+    surface: NDArray[np.float64], *, max_radius: int, cell_m: float, extrapolate: bool = False
 ) -> NDArray[np.float64]:
     """Local terrain slope (rise over run) per cell, objects removed.
 
     The gap-free minimum surface opened with the largest window (what no object survives)
-    is smoothed with a box of that window and its gradient taken.
+    is smoothed with a box of that window and its gradient taken. With ``extrapolate``
+    the surface is first continued beyond the raster's edges by point reflection
+    (``2 z(edge) - z(edge - k)``); otherwise the edge cells are replicated and terrain
+    rising towards an edge measures nearly flat there.
     """
-    trend = opening(surface, max_radius)
+    pad = 2 * max_radius + 1 if extrapolate else 0  # the reach of the opening
+    rows, cols = surface.shape
+    # beyond the raster's edges the surface is continued by point reflection: replicated
+    # edge cells would make terrain rising towards an edge look flat there
+    padded = np.pad(surface, pad, mode="reflect", reflect_type="odd") if pad else surface
+    trend = opening(padded, max_radius)
     trend = ndimage.uniform_filter(trend, size=max_radius + 1, mode="nearest")
+    trend = trend[pad : pad + rows, pad : pad + cols]
     rows, cols = trend.shape
     gx = np.gradient(trend, cell_m, axis=1) if cols > 1 else np.zeros_like(trend)
     gy = np.gradient(trend, cell_m, axis=0) if rows > 1 else np.zeros_like(trend)
     return np.hypot(gx, gy)
+
+
+def plane_misfit(
+    zmin: NDArray[np.float64], kept: NDArray[np.bool_], radius: int = 2
+) -> NDArray[np.float64]:
+    """Height of every cell above the plane fitted to the kept cells around it, metres.
+
+    The plane is the least-squares fit to the kept cells of the ``(2 radius + 1)``-cell
+    square window (box sums of the moments, so the cost is a few filters per raster);
+    NaN where the window holds fewer than three kept cells or they are collinear.
+    """
+    size = 2 * radius + 1
+    w = kept.astype(np.float64)
+    z = np.where(kept, zmin, 0.0)
+    z0 = float(np.mean(zmin[kept])) if kept.any() else 0.0
+    z = np.where(kept, z - z0, 0.0)  # small numbers for the moments
+    rows, cols = zmin.shape
+    r = np.arange(rows, dtype=np.float64)[:, None] - 0.5 * rows
+    c = np.arange(cols, dtype=np.float64)[None, :] - 0.5 * cols
+
+    def box(values: NDArray[np.float64]) -> NDArray[np.float64]:
+        return ndimage.uniform_filter(values, size=size, mode="constant") * float(size * size)
+
+    # moments about the centre cell: sum w (r - r0)^i (c - c0)^j from the raw sums
+    n, sr, sc = box(w), box(w * r), box(w * c)
+    srr, scc, src = box(w * r * r), box(w * c * c), box(w * r * c)
+    sz, szr, szc = box(z), box(z * r), box(z * c)
+    mr, mc = sr - r * n, sc - c * n
+    mrr = srr - 2 * r * sr + r * r * n
+    mcc = scc - 2 * c * sc + c * c * n
+    mrc = src - r * sc - c * sr + r * c * n
+    mzr, mzc = szr - r * sz, szc - c * sz
+    # Cramer's rule for the plane's value at the centre (the intercept)
+    det = n * (mrr * mcc - mrc * mrc) - mr * (mr * mcc - mrc * mc) + mc * (mr * mrc - mrr * mc)
+    num = sz * (mrr * mcc - mrc * mrc) - mr * (mzr * mcc - mrc * mzc) + mc * (mzr * mrc - mrr * mzc)
+    good = (n >= 3) & (np.abs(det) > 1e-6 * np.maximum(n, 1.0) ** 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        plane = np.where(good, num / np.where(good, det, 1.0), np.nan)
+    return (zmin - z0) - plane
+
+
+def joined_patches(
+    misfit: NDArray[np.float64],
+    candidates: NDArray[np.bool_],
+    tolerance_m: float,
+    share: float,
+) -> NDArray[np.bool_]:
+    """Candidate cells in patches that continue the plane of the kept ground around them.
+
+    A patch is a connected (8-neighbour) set of ``candidates``; its border cells are those
+    with a finite ``misfit`` (:func:`plane_misfit`: kept ground around them). A border
+    cell joins the ground when it lies within ``tolerance_m`` of the plane of that
+    ground, and a patch is kept when at least ``share`` of its border cells join: the
+    convex ground of a crest or a terrace edge continues the slope around it, while a
+    roof (even one whose uphill edge meets the slope) stands on a step along most of its
+    outline and a shrub stands above the slope's plane. A patch with no border cell is
+    not kept.
+    """
+    labels, n_labels = ndimage.label(candidates, structure=np.ones((3, 3), dtype=bool))
+    if n_labels == 0:
+        return np.zeros(candidates.shape, dtype=bool)
+    border = candidates & np.isfinite(misfit)
+    joins = border & (np.abs(np.where(border, misfit, 0.0)) <= tolerance_m)
+    n_border = np.bincount(labels[border], minlength=n_labels + 1)
+    n_joins = np.bincount(labels[joins], minlength=n_labels + 1)
+    accept = (n_border > 0) & (n_joins >= share * n_border)
+    accept[0] = False
+    return accept[labels]
 
 
 def low_outliers(
@@ -395,27 +520,55 @@ def smrf(
     if low.any():
         zfilled = inpaint(np.where(low | empty, np.nan, zmin))
     max_radius = max(1, int(np.ceil(p.window_m / p.cell_m)))
-    extra = None
-    if p.terrain_slope_weight > 0:
 
+    def local_slope(extrapolate: bool) -> NDArray[np.float64]:
         def trend(window):
-            return terrain_slope_raster(zfilled[window], max_radius=max_radius, cell_m=p.cell_m)
+            return terrain_slope_raster(
+                zfilled[window], max_radius=max_radius, cell_m=p.cell_m, extrapolate=extrapolate
+            )
 
         if empty.mean() > 1.0 - _BLOCKWISE_MAX_SHARE:
             halo = 3 * max_radius + 2  # the opening and the smoothing box
-            extra = _boxwise(trend, ~empty, halo, np.zeros(zfilled.shape))
-        else:
-            extra = trend((slice(None), slice(None)))
-        extra *= p.terrain_slope_weight
+            return _boxwise(trend, ~empty, halo, np.zeros(zfilled.shape))
+        return trend((slice(None), slice(None)))
+
+    extra = local = edge = None
+    if p.terrain_slope_weight > 0:
+        local = local_slope(False)
+        extra = local * p.terrain_slope_weight
+    if p.edge_slope_allowance:
+        edge = local_slope(True)
+    extra_radius = max(2, int(np.floor(p.terrain_slope_radius_m / p.cell_m)))
     is_object = progressive_filter(
         zfilled,
         slope=p.slope,
         max_radius=max_radius,
         cell_m=p.cell_m,
         extra_slope=extra,
-        extra_max_radius=max(2, int(np.floor(p.terrain_slope_radius_m / p.cell_m))),
+        extra_max_radius=extra_radius,
         active=~empty,
+        edge_slope=edge,
     )
+    if (extra is not None or edge is not None) and p.join_share > 0:
+        # the slope allowance is kept only in patches that continue the ground around them
+        published = progressive_filter(
+            zfilled, slope=p.slope, max_radius=max_radius, cell_m=p.cell_m, active=~empty
+        )
+        kept = ~(empty | low | published)
+        recovered = published & ~is_object & ~empty & ~low
+        if recovered.any():
+            radius = max(1, int(np.ceil(p.join_radius_m / p.cell_m)))
+
+            def misfit(window):
+                return plane_misfit(zmin[window], kept[window], radius)
+
+            if empty.mean() > 1.0 - _BLOCKWISE_MAX_SHARE:
+                fit = _boxwise(misfit, ~empty, radius + 1, np.full(zmin.shape, np.nan))
+            else:
+                fit = misfit((slice(None), slice(None)))
+            is_object = published & ~joined_patches(fit, recovered, p.threshold_m, p.join_share)
+        else:
+            is_object = published
     keep = ~(empty | low | is_object)
     if p.low_cluster_window_m > 0 and keep.any():
         # pits in the terrain with the objects taken out (between buildings the minimum
