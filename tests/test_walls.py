@@ -142,8 +142,12 @@ def test_pointed_window_keeps_its_width() -> None:
         TLSStation((4.0, 4.0, 1.6), step_deg=0.2, **QUIET),
         TLSStation((3.8, -4.0, 1.6), step_deg=0.2, azimuth_deg=(20, 160), **QUIET),
     ]
-    s.add_quad([[0, 4.5, 0], [L, 4.5, 0], [L, 4.5, 5], [0, 4.5, 5]], instance=9,
-               class_name="wall", part="face")  # something seen through the window
+    s.add_quad(
+        [[0, 4.5, 0], [L, 4.5, 0], [L, 4.5, 5], [0, 4.5, 5]],
+        instance=9,
+        class_name="wall",
+        part="face",
+    )  # something seen through the window
     res = scan(s, stations, rng=1)
     walls = segment_walls(res.xyz)
     south = min(walls.walls, key=lambda x: abs(x.normal[0]) + abs(x.d * x.normal[1]))

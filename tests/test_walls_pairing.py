@@ -46,6 +46,8 @@ def test_lone_face_stays_a_wall_of_its_own() -> None:
     g = rng.uniform(0, 5, (5000, 2))
     a = np.c_[g[:, 0], np.zeros(len(g)), g[:, 1]]
     b = np.c_[np.full(len(g), 7.0), g[:, 0], g[:, 1]]
-    faces = [WallFace(np.array([0.0, 1.0, 0.0]), 0.0, np.arange(len(g)), 0.002),
-             WallFace(np.array([1.0, 0.0, 0.0]), 7.0, np.arange(len(g), 2 * len(g)), 0.002)]
+    faces = [
+        WallFace(np.array([0.0, 1.0, 0.0]), 0.0, np.arange(len(g)), 0.002),
+        WallFace(np.array([1.0, 0.0, 0.0]), 7.0, np.arange(len(g), 2 * len(g)), 0.002),
+    ]
     assert pair_faces(np.vstack([a, b]), faces, WallParams()) == [(0,), (1,)]

@@ -88,13 +88,19 @@ def register(app: typer.Typer) -> None:
         ] = 0.06,
         door_step_m: Annotated[
             float,
-            typer.Option("--door-step", help="An opening whose foot lies within this height of "
-                         "a face's foot is a door, metres."),
+            typer.Option(
+                "--door-step",
+                help="An opening whose foot lies within this height of "
+                "a face's foot is a door, metres.",
+            ),
         ] = 0.2,
         max_mullion_m: Annotated[
             float,
-            typer.Option("--max-mullion", help="Lights of one window separated by mullions up "
-                         "to this width are one opening, metres (0: each light apart)."),
+            typer.Option(
+                "--max-mullion",
+                help="Lights of one window separated by mullions up "
+                "to this width are one opening, metres (0: each light apart).",
+            ),
         ] = 0.0,
         ifc: Annotated[
             bool, typer.Option("--ifc", help="Also write model.ifc (IFC 4; needs the bim extra).")

@@ -125,4 +125,42 @@ def face_points(
     grid[ij[:, 0], ij[:, 1]] = True
     grid = ndimage.binary_dilation(grid, iterations=1)
     pij = np.clip(np.floor((uz - lo) / cell).astype(np.int64), 0, shape - 1)
-    return idx[grid[pij[:, 0], pij[:, 1]]]
+    own = grid[pij[:, 0], pij[:, 1]]
+    res = np.abs(xyz[idx] @ n - d)
+    seed_rms = float(np.sqrt(np.mean((xyz[seeds] @ n - d) ** 2)))
+    on_plane = res <= max(3.0 * seed_rms, 0.005)  # not reveals' or mixed pixels' returns
+    return idx[own | (on_plane & _strips(pij, grid, on_plane))]
+
+
+def _strips(pij: NDArray[np.int64], grid: NDArray[np.bool_],
+            on_plane: NDArray[np.bool_]) -> NDArray[np.bool_]:  # fmt: skip
+    """Points in the holes of a face's footprint ``grid`` (cells ``pij``) that are face
+    too: mullions and transoms, from the points ``on_plane`` (within three RMS of it:
+    the returns of reveals near the plane and mixed pixels spread across the band).
+
+    A stone strip between the lights of a window, narrower than the normals'
+    neighbourhood, seeds nothing, and its points lie in a hole of the footprint.  A run
+    of points across a hole, touching the footprint at both ends (sill and head, or
+    both jambs), is such a strip; returns of the reveals near the plane, along one
+    edge of the hole, touch it along one stretch only and are left out.
+    """
+    from scipy import ndimage
+
+    holes = ndimage.binary_fill_holes(grid) & ~grid
+    cand = holes[pij[:, 0], pij[:, 1]] & on_plane
+    keep = np.zeros(len(pij), dtype=bool)
+    if np.count_nonzero(cand) < 10:
+        return keep
+    occ = np.zeros(grid.shape, dtype=bool)
+    occ[pij[cand, 0], pij[cand, 1]] = True
+    eight = np.ones((3, 3), dtype=bool)
+    lab, _ = ndimage.label(ndimage.binary_closing(occ, eight) & holes, structure=eight)
+    plab = lab[pij[:, 0], pij[:, 1]]
+    for c, sl in enumerate(ndimage.find_objects(lab), start=1):
+        if sl is None:
+            continue
+        box = tuple(slice(max(s.start - 2, 0), s.stop + 2) for s in sl)
+        touch = ndimage.binary_dilation(lab[box] == c, eight) & grid[box]
+        if ndimage.label(touch, structure=eight)[1] >= 2:
+            keep |= cand & (plab == c)
+    return keep

@@ -7,7 +7,7 @@ from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening
 
-__all__ = ["face_edges", "head_sill", "merge_lights", "refine_edges"]
+__all__ = ["face_edges", "face_spacing", "head_sill", "merge_lights", "refine_edges"]
 
 
 def merge_lights(openings: list[Opening], max_mullion_m: float,
@@ -42,10 +42,14 @@ def merge_lights(openings: list[Opening], max_mullion_m: float,
             b = wins[j]
             gap_u = max(a.u_min, b.u_min) - min(a.u_max, b.u_max)
             gap_z = max(a.z_min, b.z_min) - min(a.z_max, b.z_max)
-            side = 0 <= gap_u <= max_mullion_m and overlap(a.z_min, a.z_max, b.z_min,
-                                                            b.z_max) >= min_overlap
-            stacked = 0 <= gap_z <= max_mullion_m and overlap(a.u_min, a.u_max, b.u_min,
-                                                               b.u_max) >= min_overlap
+            side = (
+                0 <= gap_u <= max_mullion_m
+                and overlap(a.z_min, a.z_max, b.z_min, b.z_max) >= min_overlap
+            )
+            stacked = (
+                0 <= gap_z <= max_mullion_m
+                and overlap(a.u_min, a.u_max, b.u_min, b.u_max) >= min_overlap
+            )
             if side or stacked:
                 parent[root(j)] = root(i)
     groups: dict[int, list[Opening]] = {}
@@ -69,8 +73,15 @@ def merge_lights(openings: list[Opening], max_mullion_m: float,
 
 
 def refine_edges(
-    uz: Array, face_of: NDArray[np.int64], u0: float, u1: float, z0: float, z1: float,
-    c: float, at_foot: bool, jambs: tuple[float, float] | None = None,
+    uz: Array,
+    face_of: NDArray[np.int64],
+    u0: float,
+    u1: float,
+    z0: float,
+    z1: float,
+    c: float,
+    at_foot: bool,
+    jambs: tuple[float, float] | None = None,
 ) -> tuple[float, float, float, float]:
     """Edges of an opening from the face points around it (finer than the grid).
 
@@ -78,23 +89,46 @@ def refine_edges(
     spacing, and the opening through the wall is where all faces are open: the
     innermost jambs, the lowest head and the highest sill of the faces measured (a
     reveal splayed towards one face widens that face's opening only).  A measured edge
-    is a correction of the grid's, within two cells of it (points of a mullion or a
-    transom inside a hole the grid did not split are no edge of it); an edge nothing
-    measures keeps the grid's value.
+    is a correction of the grid's: outwards within two cells of it (points of the wall
+    beyond are no edge of it), inwards within two cells and the face's point spacing
+    (:func:`face_spacing`), as the grid's hole of a sparse face reaches into
+    the gaps between its points along the edge, up to the inner face's wider hole
+    through a splayed reveal; an edge nothing measures keeps the grid's value.
     """
+    faces = np.unique(face_of)
     found = np.array([face_edges(uz[face_of == f], u0, u1, z0, z1, c, at_foot, jambs)
-                      for f in np.unique(face_of)]).reshape(-1, 4)  # fmt: skip
+                      for f in faces]).reshape(-1, 4)  # fmt: skip
+    reach = np.array([2 * c + face_spacing(uz[face_of == f]) for f in faces])
     grid = (u0, u1, z0, z1)
     out = []
-    for k, pick in enumerate((np.max, np.min, np.max, np.min)):
-        col = found[:, k][np.isfinite(found[:, k])]
-        col = col[np.abs(col - grid[k]) <= 2 * c]  # a correction of the grid, no more
-        out.append(float(pick(col)) if len(col) else grid[k])
+    for k, (pick, inward) in enumerate(((np.max, 1), (np.min, -1), (np.max, 1), (np.min, -1))):
+        col = found[:, k]
+        move = inward * (col - grid[k])  # > 0: into the opening
+        ok = np.isfinite(col) & (move >= -2 * c) & (move <= reach)
+        out.append(float(pick(col[ok])) if np.any(ok) else grid[k])
     return out[0], out[1], out[2], out[3]
 
 
+def face_spacing(uz: Array) -> float:
+    """Point spacing of one face's points ``(u, z)`` (m): the median distance to the
+    fourth nearest neighbour (the spacing between scan lines, not along them); 0 for
+    fewer than 10 points."""
+    from scipy.spatial import cKDTree
+
+    if len(uz) < 10:
+        return 0.0
+    d, _ = cKDTree(uz).query(uz, k=5)
+    return float(np.median(d[:, 4]))
+
+
 def face_edges(
-    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, at_foot: bool,
+    uz: Array,
+    u0: float,
+    u1: float,
+    z0: float,
+    z1: float,
+    c: float,
+    at_foot: bool,
     jambs: tuple[float, float] | None = None,
 ) -> tuple[float, float, float, float]:
     """Edges of an opening from the points of one face around it (NaN: not measured).
@@ -119,33 +153,70 @@ def face_edges(
         lo_z = max(lo_z, jambs[0]) if at_foot else max(z0 + 0.05 * h, jambs[0])
         hi_z = min(hi_z, jambs[1])
     if hi_z - lo_z >= 2 * c or jambs is None:  # too short a band: the grid edges stand
+        sp = face_spacing(uz)
         band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < hi_z)
-        left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - 2 * c)]
-        right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + 2 * c)]
-        if len(left) >= 5 and len(right) >= 5:
-            row = max(c, step)
-            r0, r1 = _row_innermost(left, row, np.maximum), _row_innermost(right, row, np.minimum)
-    m0, m1 = (u0, u1) if np.isnan(r0) else (r0, r1)
+        reach = 2 * c + 2 * sp  # the next column out, for the gap at the jamb
+        left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - reach)]
+        right = uz[band_z & (uz[:, 0] > uc) & (uz[:, 0] < u1 + reach)]
+        n_left = np.count_nonzero(left[:, 0] > u0 - 2 * c)
+        n_right = np.count_nonzero(right[:, 0] < u1 + 2 * c)
+        if n_left >= 5 and n_right >= 5:
+            row = max(c, step, 1.5 * sp)  # every column of a sparse face in each row
+            r0 = _row_innermost(left, row, np.maximum, u0 - 2 * c)
+            r1 = _row_innermost(right, row, np.minimum, u1 + 2 * c)
+    m0, m1 = (u0 if np.isnan(r0) else r0), (u1 if np.isnan(r1) else r1)
     s0, s1 = head_sill(uz, m0, m1, z0, z1, c, step, at_foot)
     return r0, r1, s0, s1
 
 
-def _row_innermost(uz: Array, c: float, innermost: np.ufunc) -> float:
-    """The jamb from the innermost ``u`` of each row of height ``c``: its 90th (left,
-    ``np.maximum``) or 10th (right) percentile over the rows.  No face point lies
-    inside the opening, so each row's innermost point is at the jamb or short of it
-    (by up to the point spacing on a sparse face): a high order statistic, not the
-    median, is the edge; the last tenth allows for a few stray points."""
+def _row_innermost(uz: Array, c: float, innermost: np.ufunc, limit: float) -> float:
+    """The jamb from the innermost ``u`` of each row of height ``c``.
+
+    No face point lies inside the opening, so each row's innermost point is at the jamb
+    or short of it by up to the face's spacing along ``u`` there.  Where the rows'
+    innermost points spread over that spacing (scan lines crossing the jamb at varying
+    phase) their 90th (left, ``np.maximum``) or 10th (right) percentile is the edge (the
+    last tenth allows for a few stray points); where they do not (columns of a scan at a
+    fixed azimuth, parallel to the jamb) the edge is anywhere in the gap to the next
+    column, and half the gap not covered by the spread is added (the gap's middle).
+    The gap is the median over the rows of the distance from the innermost point to the
+    next one outwards; the spread, twice the distance from the median to the 90th
+    percentile (robust to rows missing the innermost column).  Rows whose innermost
+    point is beyond ``limit`` (outwards) are no jamb rows (the points beyond serve for
+    the gaps only).
+    """
+    sign = 1.0 if innermost is np.maximum else -1.0
+    v = sign * uz[:, 0]  # increasing into the opening
     rows = np.floor(uz[:, 1] / c).astype(np.int64)
-    order = np.argsort(rows, kind="stable")
-    r, u = rows[order], uz[order, 0]
+    order = np.lexsort((-v, rows))  # per row, innermost first
+    r, vs = rows[order], v[order]
     starts = np.flatnonzero(np.r_[True, np.diff(r) != 0])
-    q = 90 if innermost is np.maximum else 10
-    return float(np.percentile(innermost.reduceat(u, starts), q))
+    nxt = np.r_[starts[1:], len(vs)]
+    keep = vs[starts] >= sign * limit
+    starts, nxt = starts[keep], nxt[keep]
+    if len(starts) == 0:
+        return float("nan")
+    inner = vs[starts]
+    gaps = []
+    for a, b in zip(starts, nxt, strict=True):
+        far = vs[a] - vs[a + 1 : b]
+        far = far[far > 0.25 * c]  # the next column, not a point beside the innermost
+        if len(far):
+            gaps.append(float(far.min()))
+    q90, q50 = np.percentile(inner, [90, 50])
+    gap = float(np.median(gaps)) if len(gaps) >= 3 else 0.0
+    edge = q90 + 0.5 * max(0.0, gap - 2.0 * (q90 - q50))
+    return float(sign * edge)
 
 
 def head_sill(
-    uz: Array, u0: float, u1: float, z0: float, z1: float, c: float, step: float,
+    uz: Array,
+    u0: float,
+    u1: float,
+    z0: float,
+    z1: float,
+    c: float,
+    step: float,
     at_foot: bool,
 ) -> tuple[float, float]:
     """Sill and head of an opening from one face's points below and above its centre

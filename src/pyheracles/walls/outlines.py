@@ -105,9 +105,7 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
             if sl[0].start == 0 or sl[0].stop == nu or sl[1].stop >= shape[1]:
                 continue  # open to the wall's end or top: not enclosed
             at_foot = bool(np.any(sl[1].start <= bot[sl[0]] + 1))
-            on_floor = at_foot or any(
-                sl[1].start <= np.median(ft[sl[0]]) + step for ft in feet
-            )
+            on_floor = at_foot or any(sl[1].start <= np.median(ft[sl[0]]) + step for ft in feet)
             grown = ndimage.binary_dilation(lab == m, iterations=1)
             z_lo = sl[1].start + (2 if on_floor else 0)
             sel = np.zeros(len(uz_all), dtype=bool)

@@ -169,4 +169,3 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
             )
     timings["walls"] = time.perf_counter() - t
     return WallResult(labels, tuple(walls), p, tuple(notes), timings)
-
