@@ -38,7 +38,16 @@ import pandas as pd
 
 from pyheracles.errors import InputError
 
-__all__ = ["IfcReport", "export_ifc", "export_ifc_folders", "radius_profile", "read_result_folder"]
+__all__ = [
+    "IfcReport",
+    "axis_base",
+    "export_ifc",
+    "export_ifc_folders",
+    "radius_profile",
+    "read_result_folder",
+    "section_roll",
+    "surface_radius",
+]
 
 #: IFC 4 class and predefined type per member role of the frame analysis
 #: (:data:`pyheracles.beams.roles.ROLES`); loose timber is kept, as a plain member.
@@ -251,54 +260,76 @@ def _points_of(cloud: Any, instance: int) -> Array:
     return cloud.xyz[inst == instance]
 
 
-def _rect_direction(xy: Array) -> Array:
-    """Unit direction of the long side of the points' minimum-area rectangle."""
-    from pyheracles.geometry.fitting import min_area_rectangle
-
-    if len(xy) < 3:
-        return np.array([1.0, 0.0])
-    try:
-        _, _, axes = min_area_rectangle(xy)
-        a = np.asarray(axes, dtype=np.float64).reshape(2, 2)
-        return a[0] / np.linalg.norm(a[0])
-    except Exception:  # degenerate points: the principal direction
-        c = xy - xy.mean(axis=0)
-        return np.linalg.svd(c, full_matrices=False)[2][0]
-
-
 def _unit(v: Array) -> Array | None:
     v = np.asarray(v, dtype=np.float64)
     n = float(np.linalg.norm(v))
     return None if not math.isfinite(n) or n == 0 else v / n
 
 
+def surface_radius(d: Array, window_m: float) -> tuple[float, float]:
+    """(radius, scatter) of the densest ring of distances ``d`` to an axis.
+
+    The radius is the median of the distances within ``window_m`` of the centre of the
+    densest window of that width (the column's surface), the scatter their robust
+    standard deviation: a plinth, a base moulding or a capital in the same slice
+    spreads its distances over a wide range and moves neither.
+    """
+    d = np.sort(d)
+    if len(d) == 0:
+        return math.nan, math.nan
+    hi = np.searchsorted(d, d + window_m, side="right")
+    k = int(np.argmax(hi - np.arange(len(d))))
+    centre = 0.5 * (d[k] + d[hi[k] - 1])
+    near = d[np.abs(d - centre) <= window_m]
+    r = float(np.median(near))
+    return r, 1.4826 * float(np.median(np.abs(near - r)))
+
+
 def radius_profile(
-    pts: Array, base: Array, axis: Array, length: float, *, stations: int = 8,
+    pts: Array,
+    base: Array,
+    axis: Array,
+    length: float,
+    *,
+    stations: int = 8,
     min_change_m: float = 0.005,
+    radius: float | None = None,
+    band: float = 0.3,
 ) -> Array | None:
     """(radius, height) of a column at ``stations`` heights, or None for a straight one.
 
-    The radius at a station is the median distance to the fitted axis of the points in
-    its slice; a column is written as a solid of revolution of these radii when they
-    change along it (taper, entasis) by more than ``min_change_m`` and three times the
-    scatter of the points about their slice's radius; else as a cylinder.  The stations
-    run from the base (0) to ``length``; slices with fewer than 20 points are
-    interpolated from their neighbours.
+    The radius at a station is the radius of the densest ring of distances to the
+    fitted axis among the points of its slice within ``band`` x ``radius`` of
+    ``radius`` (:func:`surface_radius`, window ``max(1 cm, 0.05 radius)``; a plinth,
+    the sides of an abacus or a capital in the slice do not move it; a taper of more
+    than ``band`` either side of the mean radius is cut there);
+    a column is written as a solid of revolution of these radii when they change
+    along it (taper, entasis) by more than ``min_change_m`` and three times the
+    scatter of the points about their slice's radius; else as a cylinder.  The
+    stations run from the base (0) to ``length``; slices with fewer than 20 points are
+    interpolated from their neighbours.  ``radius`` (the fitted cylinder's, from the
+    objects table) sets the window and the level: the radii are shifted so that their
+    mean over the measured stations is ``radius`` (the solid agrees with the table;
+    the change of radius along the axis is what is measured).  Without it the window
+    is from the median distance to the axis and the radii are as measured.
     """
     if len(pts) < 20 * stations or not math.isfinite(length) or length <= 0:
         return None
     rel = pts - base
     t = rel @ axis
     d = np.linalg.norm(rel - np.outer(t, axis), axis=1)
+    ref = float(np.median(d)) if radius is None or not math.isfinite(radius) else radius
+    window = max(0.01, 0.05 * ref)
     edges = np.linspace(0.0, length, stations + 1)
     k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, stations - 1)
     r = np.full(stations, np.nan)
     spread = []
+    near = np.abs(d - ref) <= band * ref  # plausible shaft radii: not a plinth, an abacus
     for i in range(stations):
-        di = d[k == i]
+        di = d[(k == i) & near]
         if len(di) >= 20:
-            r[i] = float(np.median(di))
-            spread.append(1.4826 * float(np.median(np.abs(di - r[i]))))
+            r[i], sd = surface_radius(di, window)
+            spread.append(sd)
     ok = np.isfinite(r)
     if ok.sum() < 3:
         return None
@@ -307,11 +338,92 @@ def radius_profile(
     noise = float(np.median(spread))
     if np.ptp(r) <= max(min_change_m, 3 * noise):
         return None
+    if radius is not None and math.isfinite(radius):
+        r = r + (radius - float(r.mean()))
     # end stations from the nearest slices' trend, so the solid spans the whole height
     lo = r[0] + (r[0] - r[1]) * 0.5
     hi = r[-1] + (r[-1] - r[-2]) * 0.5
     radii = np.r_[lo, r, hi]
     return np.column_stack([np.clip(radii, 1e-3, None), np.r_[0.0, mid, length]])
+
+
+def axis_base(
+    pts: Array, xy: Array, axis: Array, radius: float, z_min: float, *, grid_m: float = 0.005
+) -> Array:
+    """Point of a support's fitted axis at height ``z_min``.
+
+    The objects table gives the axis direction and one point of it in plan (``x``,
+    ``y``), at the unknown height of the fit (mid-height of the fitted points): for a
+    tilted axis the vertical through (``x``, ``y``) meets the axis there only.  The
+    axis is the line of that direction through the vertical at the height that fits the
+    points best at the table's ``radius`` (truncated least squares of the distance to
+    the axis minus the radius, residuals beyond ``max(1 cm, 0.1 radius)`` count as
+    that: mouldings, plinths, capitals); a grid of ``grid_m`` sideways steps, then a
+    bounded refinement.  A vertical axis (sideways shift below ``grid_m`` over the
+    points' height) is taken through (``x``, ``y``) as it is.
+    """
+    from scipy.optimize import minimize_scalar
+
+    ez = np.array([0.0, 0.0, 1.0])
+    lo, hi = (float(pts[:, 2].min()), float(pts[:, 2].max())) if len(pts) else (z_min, z_min)
+    u = ez - axis[2] * axis  # sideways move of the axis per metre moved up the vertical
+    sin_tilt = float(np.linalg.norm(u))
+    ref = np.array([xy[0], xy[1], 0.5 * (lo + hi)])
+    if len(pts) >= 20 and (hi - lo) * sin_tilt > grid_m:
+        rel = pts - ref
+        perp = rel - np.outer(rel @ axis, axis)
+        cap = max(0.01, 0.1 * radius) ** 2
+
+        def cost(s: float) -> float:
+            d = np.linalg.norm(perp - s * u, axis=1) - radius
+            return float(np.minimum(d * d, cap).sum())
+
+        half = 0.5 * (hi - lo)
+        grid = np.linspace(-half, half, max(3, int(2 * half * sin_tilt / grid_m) + 1))
+        k = int(np.argmin([cost(s) for s in grid]))
+        step = grid[1] - grid[0]
+        s = minimize_scalar(cost, bounds=(grid[k] - step, grid[k] + step), method="bounded")
+        ref = ref + float(s.x) * ez
+    if axis[2] < 1e-6:  # a horizontal axis: no height to move along it
+        return np.array([xy[0], xy[1], z_min])
+    return ref + (z_min - ref[2]) / axis[2] * axis
+
+
+def section_roll(q: Array, width: float, height: float, *, step_deg: float = 1.0) -> float:
+    """Angle (rad) of the first side of a known rectangle that its points outline.
+
+    ``q`` are 2-D points relative to the rectangle's centre: a member's points in its
+    cross-section plane (first axis the horizontal across the member: the width
+    direction of the objects table when the section is not rolled), or a pier's
+    points in plan.  The angle puts the ``width`` x ``height`` rectangle where its
+    boundary is closest to the points (truncated least squares of the distance to the
+    boundary, residuals beyond ``max(1 cm, 0.1 x the smaller side)`` count as that:
+    joints, neighbours), searched over half a turn (the rectangle's symmetry) in
+    ``step_deg`` steps, then refined.  An element seen on one or two faces is placed by
+    those faces (a principal direction of its points would not be a side); no
+    points: 0.
+    """
+    from scipy.optimize import minimize_scalar
+
+    if len(q) < 3 or not (width > 0 and height > 0):
+        return 0.0
+    if len(q) > 4000:
+        q = q[np.linspace(0, len(q) - 1, 4000).astype(np.intp)]
+    half = np.array([0.5 * width, 0.5 * height])
+    cap = max(0.01, 0.1 * min(width, height)) ** 2
+
+    def cost(a: float) -> float:
+        c, s = math.cos(a), math.sin(a)
+        loc = np.abs(q @ np.array([[c, -s], [s, c]])) - half
+        out = np.linalg.norm(np.maximum(loc, 0.0), axis=1)
+        d = np.where(out > 0, out, -loc.max(axis=1))
+        return float(np.minimum(d * d, cap).sum())
+
+    step = math.radians(step_deg)
+    grid = np.arange(-0.5 * math.pi, 0.5 * math.pi, step)
+    k = int(np.argmin([cost(a) for a in grid]))
+    best = minimize_scalar(cost, bounds=(grid[k] - step, grid[k] + step), method="bounded")
+    return float(best.x)
 
 
 def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
@@ -322,6 +434,7 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
         if cls not in ("column", "pier", "engaged_column"):
             continue
         base = np.array([r["x"], r["y"], r["z_min"]], dtype=np.float64) - off
+        xy = base[:2]
         height = float(r.get("box_height_m", np.nan)) if cls == "pier" else np.nan
         if not math.isfinite(height):
             height = float(r["height_m"])
@@ -331,8 +444,8 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             if not (math.isfinite(length) and math.isfinite(width)):
                 rep.notes.append(f"support {inst}: no box fitted, not written")
                 continue
-            d = _rect_direction(pts[:, :2])
-            place = w.placement(base, (0, 0, 1), (d[0], d[1], 0.0))
+            a = section_roll(pts[:, :2] - base[:2], length, width)  # plan angle of the length
+            place = w.placement(base, (0, 0, 1), (math.cos(a), math.sin(a), 0.0))
             shape = w.shape([w.solid(w.rectangle(length, width), height)])
             predefined, dims = "COLUMN", {"length_m": length, "width_m": width}
             tilt = 0.0
@@ -343,20 +456,23 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
                 rep.notes.append(f"support {inst}: no cylinder fitted, not written")
                 continue
             axis = axis if axis[2] >= 0 else -axis
+            base = axis_base(pts, xy, axis, radius, float(base[2]))
             tilt = math.degrees(math.acos(min(1.0, abs(float(axis[2])))))
             x = np.cross(axis, [0.0, 1.0, 0.0]) if abs(axis[0]) < 0.9 else np.cross(axis, [0, 0, 1])
             place = w.placement(base, axis, x)
             length = height / max(abs(axis[2]), 1e-6)
-            profile = radius_profile(pts, base, axis, length)
+            profile = radius_profile(pts, base, axis, length, radius=radius)
             predefined = "PILASTER" if cls == "engaged_column" else "COLUMN"
             dims = {"radius_m": radius}
             if profile is None:
                 shape = w.shape([w.solid(w.circle(radius), length)])
             else:  # taper or entasis: the measured radii revolved about the axis
                 shape = w.shape([w.revolved(profile)])
-                dims |= {"radius_base_m": float(profile[0, 0]),
-                         "radius_top_m": float(profile[-1, 0]),
-                         "profile": f"revolved, radii measured at {len(profile)} stations"}
+                dims |= {
+                    "radius_base_m": float(profile[0, 0]),
+                    "radius_top_m": float(profile[-1, 0]),
+                    "profile": f"revolved, radii measured at {len(profile)} stations",
+                }
         el = w.element("IfcColumn", f"{cls} {inst}", place, shape, predefined, container)
         w.pset(el, "Heracles_Provenance", {
             "instance": inst, "class": cls, "n_points": int(r["n_points"]),
@@ -388,14 +504,9 @@ def _beams(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
         e1 = np.cross(helper, axis)
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(axis, e1)
-        xdir = e1
-        if len(pts) >= 3:
-            q = pts - centre
-            d = _rect_direction(np.c_[q @ e1, q @ e2])
-            cand = d[0] * e1 + d[1] * e2  # long side of the section
-            other = np.cross(axis, cand)
-            # x of the profile along the width: the long side when width >= height
-            xdir = cand if width >= height else other
+        q = pts - centre
+        roll = section_roll(np.c_[q @ e1, q @ e2], width, height)
+        xdir = math.cos(roll) * e1 + math.sin(roll) * e2  # the profile's x: the width
         place = w.placement(centre - 0.5 * length * axis, axis, xdir)
         shape = w.shape([w.solid(w.rectangle(width, height), length)])
         role = str(r.get("role", ""))
