@@ -43,6 +43,7 @@ __all__ = [
     "opening",
     "plane_misfit",
     "progressive_filter",
+    "progressive_filters",
     "smrf",
     "terrain_slope_raster",
 ]
@@ -234,6 +235,61 @@ def progressive_filter(
         lowered by an opening of radius ``r`` by ``s (r - d)`` at ``d`` cells from the
         edge, as if it were an object; with ``edge_slope`` that drop is allowed on top.
     """
+    codes = _progressive_codes(
+        surface, slope=slope, max_radius=max_radius, cell_m=cell_m, extra_slope=extra_slope,
+        extra_max_radius=extra_max_radius, active=active, edge_slope=edge_slope,
+        edge_distance=edge_distance, published=False,
+    )  # fmt: skip
+    return codes.astype(bool)
+
+
+def progressive_filters(
+    surface: NDArray[np.float64],
+    *,
+    slope: float,
+    max_radius: int,
+    cell_m: float,
+    extra_slope: NDArray[np.float64] | None = None,
+    extra_max_radius: int = 0,
+    active: NDArray[np.bool_] | None = None,
+    edge_slope: NDArray[np.float64] | None = None,
+    edge_distance: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """:func:`progressive_filter` with its allowances and as published, from one run.
+
+    Both tests compare the same openings (the whole cost of the filter) with different
+    allowed drops, so the pair costs one filter pass instead of two. The parameters are
+    those of :func:`progressive_filter`.
+
+    Returns
+    -------
+    with_allowances
+        Objects with ``extra_slope`` and ``edge_slope`` allowed on top of ``slope``.
+    published
+        Objects with ``slope`` only (Pingel et al. 2013).
+    """
+    codes = _progressive_codes(
+        surface, slope=slope, max_radius=max_radius, cell_m=cell_m, extra_slope=extra_slope,
+        extra_max_radius=extra_max_radius, active=active, edge_slope=edge_slope,
+        edge_distance=edge_distance, published=True,
+    )  # fmt: skip
+    return (codes & 1).astype(bool), (codes & 2).astype(bool)
+
+
+def _progressive_codes(
+    surface: NDArray[np.float64],
+    *,
+    slope: float,
+    max_radius: int,
+    cell_m: float,
+    extra_slope: NDArray[np.float64] | None,
+    extra_max_radius: int,
+    active: NDArray[np.bool_] | None,
+    edge_slope: NDArray[np.float64] | None,
+    edge_distance: NDArray[np.float64] | None,
+    published: bool,
+) -> NDArray[np.uint8]:
+    """Bit 0: objects with the allowances; bit 1 (with ``published``): objects as published."""
     if edge_slope is not None and edge_distance is None:
         rows, cols = surface.shape
         dr = np.minimum(np.arange(rows), np.arange(rows)[::-1]).astype(np.float64)
@@ -245,27 +301,35 @@ def progressive_filter(
             sub_extra = None if extra_slope is None else extra_slope[window]
             sub_edge = None if edge_slope is None else edge_slope[window]
             sub_dist = None if edge_distance is None else edge_distance[window]
-            return progressive_filter(
+            return _progressive_codes(
                 surface[window], slope=slope, max_radius=max_radius, cell_m=cell_m,
-                extra_slope=sub_extra, extra_max_radius=extra_max_radius,
-                edge_slope=sub_edge, edge_distance=sub_dist,
+                extra_slope=sub_extra, extra_max_radius=extra_max_radius, active=None,
+                edge_slope=sub_edge, edge_distance=sub_dist, published=published,
             )  # fmt: skip
 
-        return _boxwise(run, active, 2 * max_radius + 2, np.zeros(surface.shape, dtype=bool))
+        out = np.zeros(surface.shape, dtype=np.uint8)
+        return _boxwise(run, active, 2 * max_radius + 2, out)
     is_object = np.zeros(surface.shape, dtype=bool)
+    plain = np.zeros(surface.shape, dtype=bool) if published else None
     last = surface
     for radius in range(1, max_radius + 1):
         opened = opening(last, radius)
+        drop = last - opened
         allowed = slope * radius * cell_m
+        if plain is not None:
+            plain |= drop > allowed
         if extra_slope is not None and radius <= extra_max_radius:
             allowed = allowed + extra_slope * (radius * cell_m)
         if edge_slope is not None and edge_distance is not None:
             near = np.maximum(0.0, radius - edge_distance)
             if near.any():
                 allowed = allowed + edge_slope * (near * cell_m)
-        is_object |= (last - opened) > allowed
+        is_object |= drop > allowed
         last = opened
-    return is_object
+    codes = is_object.astype(np.uint8)
+    if plain is not None:
+        codes |= plain.astype(np.uint8) << 1
+    return codes
 
 
 #: Share of the raster's cells near data below which the morphology runs box by box.
@@ -539,21 +603,17 @@ def smrf(
     if p.edge_slope_allowance:
         edge = local_slope(True)
     extra_radius = max(2, int(np.floor(p.terrain_slope_radius_m / p.cell_m)))
-    is_object = progressive_filter(
-        zfilled,
-        slope=p.slope,
-        max_radius=max_radius,
-        cell_m=p.cell_m,
-        extra_slope=extra,
-        extra_max_radius=extra_radius,
-        active=~empty,
-        edge_slope=edge,
-    )
-    if (extra is not None or edge is not None) and p.join_share > 0:
-        # the slope allowance is kept only in patches that continue the ground around them
-        published = progressive_filter(
-            zfilled, slope=p.slope, max_radius=max_radius, cell_m=p.cell_m, active=~empty
-        )
+    object_test = (extra is not None or edge is not None) and p.join_share > 0
+    filter_args = dict(
+        slope=p.slope, max_radius=max_radius, cell_m=p.cell_m, extra_slope=extra,
+        extra_max_radius=extra_radius, active=~empty, edge_slope=edge,
+    )  # fmt: skip
+    if not object_test:
+        is_object = progressive_filter(zfilled, **filter_args)
+    else:
+        # the slope allowance is kept only in patches that continue the ground around them;
+        # the published test comes from the same openings
+        is_object, published = progressive_filters(zfilled, **filter_args)
         kept = ~(empty | low | published)
         recovered = published & ~is_object & ~empty & ~low
         if recovered.any():
@@ -570,6 +630,7 @@ def smrf(
         else:
             is_object = published
     keep = ~(empty | low | is_object)
+    surface_of_keep = None  # the inpainted surface of ``keep`` while it is that one
     if p.low_cluster_window_m > 0 and keep.any():
         # pits in the terrain with the objects taken out (between buildings the minimum
         # surface has pits too: streets)
@@ -580,13 +641,20 @@ def smrf(
             return low_clusters(terrain[window], max_radius=radius, drop_m=p.low_cluster_drop_m)
 
         if keep.mean() < _BLOCKWISE_MAX_SHARE:
-            keep &= ~_boxwise(pits, keep, 2 * radius + 2, np.zeros(keep.shape, dtype=bool))
+            found = _boxwise(pits, keep, 2 * radius + 2, np.zeros(keep.shape, dtype=bool))
         else:
-            keep &= ~pits((slice(None), slice(None)))
+            found = pits((slice(None), slice(None)))
+        found &= keep
+        if found.any():
+            keep &= ~found
+        else:
+            surface_of_keep = terrain  # no pit: the provisional DTM is this surface
     if not keep.any():
         # every cell is an object: no ground surface can be formed
         return np.zeros(xyz.shape[0], dtype=bool), DTM(zfilled, grid, keep)
-    provisional = DTM(inpaint(np.where(keep, zmin, np.nan)), grid, keep)
+    if surface_of_keep is None:
+        surface_of_keep = inpaint(np.where(keep, zmin, np.nan))
+    provisional = DTM(surface_of_keep, grid, keep)
     # heights relative to the lowest kept cell: float32 samplers stay at µm resolution
     zref = float(zmin[keep].min())
     residual = sampler(provisional.z_m - zref)

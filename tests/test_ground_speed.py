@@ -1,0 +1,130 @@
+"""Cost of the automatic seed stage (issue 7: auto no slower than CSF on AHN3 tile 1).
+
+The slope-aware seed stage with its object test (issue 17) ran the whole progressive
+filter twice (with the allowances and as published) and inpainted the provisional DTM
+again when the low-cluster test had found no pit; the refinement sampled the DTM slope at
+every point of every pass. These tests pin the shared work."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+
+from pyheracles.groundfilters import smrf as smrf_module
+from pyheracles.groundfilters.refine import (
+    RefineParams,
+    sampled_threshold_test,
+    within_threshold,
+)
+from pyheracles.groundfilters.smrf import (
+    SMRFParams,
+    progressive_filter,
+    progressive_filters,
+    smrf,
+    terrain_slope_raster,
+)
+from pyheracles.groundfilters.surface import Grid, RasterSampler
+
+
+def _terrain(shape=(90, 110), seed=3):
+    rng = np.random.default_rng(seed)
+    rr, cc = np.indices(shape, dtype=float)
+    z = 0.4 * np.maximum(0.0, cc - 60.0) + 0.05 * rr + rng.normal(0, 0.05, shape)
+    z[20:32, 10:24] += 6.0  # a building on the flat
+    z[60:66, 70:76] += 4.0  # one on the slope
+    return z
+
+
+def test_progressive_filters_is_both_passes_bit_for_bit() -> None:
+    z = _terrain()
+    extra = terrain_slope_raster(z, max_radius=12, cell_m=1.0)
+    edge = terrain_slope_raster(z, max_radius=12, cell_m=1.0, extrapolate=True)
+    args = dict(slope=0.15, max_radius=12, cell_m=1.0)
+    allow = dict(extra_slope=extra, extra_max_radius=4, edge_slope=edge)
+    for active in (None, np.pad(np.ones((20, 30), dtype=bool), ((0, 70), (0, 80)))):
+        # the second active mask covers a small share: the box-by-box path
+        with_allowances, published = progressive_filters(z, **args, **allow, active=active)
+        assert np.array_equal(
+            with_allowances, progressive_filter(z, **args, **allow, active=active)
+        )
+        assert np.array_equal(published, progressive_filter(z, **args, active=active))
+        assert (published & ~with_allowances).any()  # the allowances do keep cells
+
+
+def test_auto_seed_stage_opens_and_inpaints_once(monkeypatch) -> None:
+    # AHN3 tile 1: the published test of the object test repeated every opening of the
+    # allowance pass (+0.04 s CPU), and the provisional DTM repeated the low-cluster
+    # test's membrane although no pit had been found (+0.02 s)
+    z = _terrain()
+    rows, cols = z.shape
+    rr, cc = np.indices(z.shape, dtype=float)
+    xyz = np.c_[cc.ravel() + 0.5, rr.ravel() + 0.5, z.ravel()]
+    params = SMRFParams(
+        window_m=12.0,
+        terrain_slope_weight=1.0,
+        terrain_slope_radius_m=4.0,
+        join_share=0.75,
+        edge_slope_allowance=True,
+        low_cluster_window_m=3.0,
+    )
+    expected, _ = smrf(xyz, params)
+    radii: Counter[int] = Counter()
+    n_inpaint = 0
+    opening, inpaint = smrf_module.opening, smrf_module.inpaint
+
+    def counted_opening(surface, radius):
+        radii[radius] += 1
+        return opening(surface, radius)
+
+    def counted_inpaint(values):
+        nonlocal n_inpaint
+        n_inpaint += 1
+        return inpaint(values)
+
+    monkeypatch.setattr(smrf_module, "opening", counted_opening)
+    monkeypatch.setattr(smrf_module, "inpaint", counted_inpaint)
+    mask, dtm = smrf(xyz, params)
+    assert np.array_equal(mask, expected)
+    assert mask.reshape(rows, cols)[40:50, 30:50].all()  # flat ground kept
+    assert not mask.reshape(rows, cols)[22:30, 12:22].any()  # the building is not
+    # radii above the low-cluster test's (3) and below the slope rasters' (12): the
+    # progressive openings only, once each
+    assert all(radii[r] == 1 for r in range(4, 12)), radii
+    # the minimum surface and the low-cluster surface, reused as provisional DTM
+    assert n_inpaint == 2
+    assert dtm.observed.any()
+
+
+def test_refinement_samples_the_slope_only_where_it_decides() -> None:
+    # AHN3 tile 1: the refinement sampled the DTM slope at all 0.64 M points three times,
+    # while its thresholds decide only ~3 % of them (the others pass at any slope, or fail
+    # at the steepest); the test must stay that of within_threshold, bit for bit
+    rng = np.random.default_rng(5)
+    grid = Grid(0.0, 60.0, 1.0, (60, 80))
+    xy = np.c_[rng.uniform(-0.5, 80.5, 50_000), rng.uniform(-0.5, 60.5, 50_000)]
+    sampler = RasterSampler(grid, xy, dtype=np.float32)
+    rr, cc = np.indices(grid.shape, dtype=float)
+    slope = 0.4 + 0.3 * np.sin(rr / 7.0) * np.cos(cc / 5.0)  # 0.1 .. 0.7
+    # ground within a few cm of the surface, objects metres above, some in between
+    residual = rng.normal(0.0, 0.02, xy.shape[0])
+    residual[::3] = rng.uniform(-1.0, 10.0, residual[::3].size)
+    residual = residual.astype(np.float32)
+    residual[::50] = np.nan
+    params = RefineParams(cell_m=1.0)
+    sampled: list[int] = []
+
+    class Counting(RasterSampler):
+        def __call__(self, values, at=None):
+            sampled.append(xy.shape[0] if at is None else at.size)
+            return super().__call__(values, at)
+
+    counting = Counting(grid, xy, dtype=np.float32)
+    for sigma in (0.01, 0.02, 0.05):
+        expected = within_threshold(residual, sampler(slope), sigma, params)
+        got = sampled_threshold_test(residual, slope, counting, sigma, params)
+        assert np.array_equal(got, expected)
+        assert expected.any() and not expected.all()
+    assert max(sampled) < 0.35 * xy.shape[0]
+    at = np.flatnonzero(rng.random(xy.shape[0]) < 0.1)
+    assert np.array_equal(sampler(slope, at=at), sampler(slope)[at])
