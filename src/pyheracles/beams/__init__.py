@@ -21,7 +21,11 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
 2. :func:`split_facet` cuts every facet into *straight facets*: bands of
    constant width found with a Hough-style search in the facet plane (the
    direction and offset whose band holds the densest line of points, longest
-   first), the width measured automatically at half the band's density
+   first), its direction refined by the band's extent and then by the
+   robust lines of its two edges (:func:`~pyheracles.beams.bands.edge_line_direction`:
+   a coplanar face flush with the band, a shadow or a mitred end bends one
+   edge over a few slices, not the median), the width measured automatically
+   at half the band's density
    profile (the thesis asked the user for the beam width); a band that is a
    strip of a wider coplanar surface (boarding between rafters) is dropped
    (:func:`~pyheracles.beams.surfaces.wide_surface_bands`);
@@ -38,8 +42,10 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    measured (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`);
 4. collinear pieces of one beam (cut by a crossing beam in an X joint or by
    a shadow) are merged, and :func:`fit_beam_cuboid` fits one oriented cuboid
-   per beam from its facets, lengthened over the short ends that gave no
-   facet of their own; groups of touching beams that all lie on a surface
+   per beam from its facets, lengthened over the short or sparse ends that
+   gave no facet of their own (by the points on the faces seen along it, in
+   rounds of ``max_gap_m``; not by normals, noisy where points are few);
+   groups of touching beams that all lie on a surface
    (timber stored on the floor) are dropped
    (:func:`~pyheracles.beams.surfaces.resting_loose`);
 5. every point within ``surface_tolerance_m`` of a cuboid surface is given to

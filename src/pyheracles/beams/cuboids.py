@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from pyheracles.beams.bands import edge_line_direction
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.grouping import UnionFind
 from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
@@ -382,7 +383,9 @@ def fit_one_face_cuboid(
     ends within a beam depth, but for what pierces the roof (a chimney).
     Where neither side does (a face inside the room), the side points decide
     alone: a band whose edge points leave the plane on one side only is
-    convex towards the other.
+    convex towards the other.  A band is a channel (``None``) when points come
+    forward from its edges and neither edge has a side going back over
+    ``min_cover`` of the length.
 
     The face's width is read at half density across the band over the band's
     and the unassigned cloud points on its plane.  The depth behind the face
@@ -434,6 +437,11 @@ def fit_one_face_cuboid(
     pts = np.vstack([xyz[f.index] for f in facets])
     c = pts.mean(axis=0)
     rel = pts - c
+    # the direction of the whole face's edges: the pieces' own directions are
+    # measured over their short lengths, and a face flush with the band pulls them
+    ang = edge_line_direction(rel @ np.column_stack([a, across]), 0.0, bin_m)
+    a = np.cos(ang) * a + np.sin(ang) * across
+    across = np.cross(n, a)
     t, s, h = rel @ a, rel @ across, rel @ n
     h0 = float(np.median(h))
     rms = float(np.sqrt(np.mean((h - h0) ** 2)))
@@ -479,10 +487,16 @@ def fit_one_face_cuboid(
         front = 1.0 if cover_lo > cover_hi else -1.0
     else:
         return None
-    cover_back, cover_ahead = (cover_lo, cover_hi) if front > 0 else (cover_hi, cover_lo)
-    if cover_ahead >= min_cover and cover_ahead > cover_back:
-        return None  # a concave channel: the sides of two other members come forward
+    cover_ahead = cover_hi if front > 0 else cover_lo
     back = off_lo if front > 0 else off_hi
+    # per edge: a side going back from one edge makes the band convex even when
+    # a surface comes forward from the other (the boarding on a rafter's top
+    # edge, seen from its side face); a channel has nothing going back
+    back_cover = max(
+        edge_coverage(t_s[back & (np.abs(s_s - edge) <= e)], rng, step) for edge in (s_lo, s_hi)
+    )
+    if cover_ahead >= min_cover and back_cover < min_cover:
+        return None  # a concave channel: the sides of two other members come forward
     depths = []
     for edge in (s_lo, s_hi):
         sel = back & (np.abs(s_s - edge) <= e)

@@ -36,7 +36,7 @@ __all__ = [
     "candidates",
     "covered",
     "extend_along_axis",
-    "lateral_face_normals",
+    "extend_once",
     "scatter",
     "segment_beams",
 ]
@@ -71,52 +71,94 @@ def candidates(xyz: NDArray[np.float64], cub: BeamCuboid, margin: float) -> NDAr
     return np.flatnonzero(inside)
 
 
-def lateral_face_normals(cub: BeamCuboid, pts: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Normal of the nearest lateral (long) face of the cuboid for every point."""
-    local = (pts - cub.centre) @ cub.axes
-    gap_w = cub.width / 2 - np.abs(local[:, 1])
-    gap_h = cub.height / 2 - np.abs(local[:, 2])
-    use_w = np.abs(gap_w) < np.abs(gap_h)
-    return np.where(use_w[:, None], cub.axes[:, 1], cub.axes[:, 2])
-
-
 def extend_along_axis(
     xyz: NDArray[np.float64],
-    normals: NDArray[np.float64],
     free: NDArray[np.bool_],
     cub: BeamCuboid,
     tol: float,
     max_gap: float,
     spacing: float,
-    cos_normal: float,
+    max_rounds: int = 8,
 ) -> BeamCuboid:
     """Lengthen a cuboid over the points that continue its faces past its ends.
 
-    Short beam ends (overhangs, the part beyond a crossing beam) often give no
-    straight facet of their own; their points lie on the beam's extended long
-    faces, with the face's normal.  The cuboid grows over such points (not
-    claimed by another beam's facets) while they are contiguous (gaps below
-    ``max_gap / 2``, the size of a crossing beam); the cross-section is kept.
+    Short beam ends (overhangs, the part beyond a crossing beam) and the far,
+    sparse ends of long members often give no straight facet of their own;
+    their points lie on the beam's extended faces.  The cuboid grows, slice by
+    slice (5 cm, or 5 point spacings), over the points (not claimed by another
+    beam's facets) within ``tol`` of its surface extended, while they are
+    contiguous (gaps below ``max_gap / 2``, the size of a crossing beam) and
+    while a slice holds more of them than of *spill*: points in the plane of
+    one of its faces but beside the section (``2 tol`` to a section size
+    past its edges), which is a wider surface going on there (a floor under a
+    tie beam's end, the masonry under a plate, boarding).  The cross-section is
+    kept.  The test is on the positions only: normals of the few points of a
+    sparse far end are too noisy to say which face they lie on.  One round
+    looks ``max_gap`` past each end; rounds are repeated (at most
+    ``max_rounds``) while an end moves by more than a slice.
     """
+    for _ in range(max_rounds):
+        longer = extend_once(xyz, free, cub, tol, max_gap, spacing)
+        if longer.length - cub.length <= max(0.05, 5 * spacing):
+            return longer
+        cub = longer
+    return cub
+
+
+def extend_once(
+    xyz: NDArray[np.float64],
+    free: NDArray[np.bool_],
+    cub: BeamCuboid,
+    tol: float,
+    max_gap: float,
+    spacing: float,
+) -> BeamCuboid:
+    """One round of :func:`extend_along_axis`: up to ``max_gap`` past each end."""
     longer = replace(cub, length=cub.length + 2 * max_gap)
     cand = candidates(xyz, longer, tol)
     cand = cand[free[cand]]
     if len(cand) == 0:
         return cub
     pts = xyz[cand]
+    local = (pts - cub.centre) @ cub.axes
+    t = local[:, 0]
     on = np.abs(longer.signed_distance(pts)) <= tol
-    face_n = lateral_face_normals(cub, pts)
-    on &= np.abs(np.einsum("ij,ij->i", normals[cand], face_n)) >= cos_normal
-    t = (pts[on] - cub.centre) @ cub.axis
+    # the lateral face of every point: 0 / 1 the low / high side across, 2 / 3 up
+    half_uv = 0.5 * np.array([cub.width, cub.height])
+    gap = np.abs(np.abs(local[:, 1:]) - half_uv)
+    nearest = np.argmin(gap, axis=1)
+    rows = np.arange(len(local))
+    face = 2 * nearest + (local[rows, 1 + nearest] > 0)
+    # on the face itself, not in the strip along its edges (the floor beside a
+    # timber lying on it is in the plane of the timber's hidden underside)
+    interior = np.abs(local[rows, 2 - nearest]) <= half_uv[1 - nearest] - tol
     half = 0.5 * cub.length
+    inside = on & interior & (np.abs(t) <= half)
+    shares = np.bincount(face[inside], minlength=4) / max(int(inside.sum()), 1)
+    on &= shares[face] >= 0.1
+    for f in np.flatnonzero(shares < 0.1):  # nor along the edges of a hidden face
+        sign, k = (1.0 if f % 2 else -1.0), 1 + f // 2
+        on &= np.abs(local[:, k] - sign * 0.5 * [cub.width, cub.height][k - 1]) > tol
     step = max(0.5 * max_gap, 10 * spacing)
+    sl = max(0.05, 5 * spacing)
     ends = []
     for sign in (1.0, -1.0):
-        beyond = np.sort(sign * t[sign * t > half - tol])
+        a = sign * t
+        beyond = a[on & (a > half - tol)]
         end = half
         if len(beyond) >= 20:
-            jumps = np.flatnonzero(np.diff(np.concatenate([[half], beyond])) > step)
-            run = beyond[: jumps[0]] if len(jumps) else beyond
+            n_sl = int(np.ceil((half + max_gap - (half - tol)) / sl)) + 1
+            k_on = np.bincount(((beyond - (half - tol)) / sl).astype(np.int64), minlength=n_sl)
+            last, empty = -1, 0.0
+            for i in range(n_sl):
+                if k_on[i] == 0:
+                    empty += sl
+                    if empty > step:
+                        break
+                    continue
+                empty = 0.0
+                last = i
+            run = beyond[beyond < (half - tol) + (last + 1) * sl] if last >= 0 else beyond[:0]
             if len(run) >= 20:
                 end = max(half, float(np.quantile(run, 0.995)))
         ends.append(end)
@@ -156,7 +198,9 @@ def add_one_face_beams(
     refit by :func:`fit_beam_cuboid`).  A run
     collinear with a one-face beam already made, or lying on its face
     extended by twice ``max_gap_m`` at each end (a piece cut off by a shadow
-    or a crossing member), joins it and the cuboid is fitted again.
+    or a crossing member), joins it and the cuboid is fitted again (on
+    several faces, :func:`fit_beam_cuboid`, when the pieces lie on faces that
+    are not parallel).
     """
     out = list(cuboids)
     fb = facet_beam.copy()
@@ -182,6 +226,18 @@ def add_one_face_beams(
             max_depth_m=p.max_beam_width_m,
             min_elongation=elongation,
         )
+
+    def fit_pieces(run: list[int]) -> BeamCuboid | None:
+        # pieces of two non-parallel faces (the underside here, a side there,
+        # along a member whose faces are shadowed in turn) define the section:
+        # a beam seen on two faces, not one face averaged over both
+        normals = np.array([facets[i].normal for i in run])
+        if np.min(np.abs(normals @ normals[0])) < cos_par:
+            try:
+                return fit_beam_cuboid(xyz, [facets[i] for i in run], bin_m=bin_m, free=free)
+            except DegenerateGeometryError:
+                return None
+        return fit(run, 0.0)
 
     added: dict[int, list[int]] = {}  # beam (0-based) -> its facets
     n_multi = len(out)
@@ -213,7 +269,7 @@ def add_one_face_beams(
             longer = replace(out[k], length=out[k].length + 4.0 * p.max_gap_m)
             on = float(np.median(np.abs(longer.signed_distance(pts)))) <= tol
             if on or collinear(out[k], cub, cos_par, 2.0 * p.max_gap_m):
-                merged = fit(prev + run, 0.0)
+                merged = fit_pieces(prev + run)
                 if merged is not None:
                     out[k] = merged
                     added[k] = prev + run
@@ -399,17 +455,17 @@ def segment_beams(
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
         claimed[f.index] = g
-    cos_n = np.cos(np.radians(regions.params.angle_deg or 15.0))
     cuboids = [
         extend_along_axis(
             arr,
-            regions.normals,
             (claimed == 0) | (claimed == i + 1),
             c,
             tol,
             p.max_gap_m,
             spacing,
-            cos_n,
+            # a band seen on one face may be a strip of a surface (the floor
+            # between stored timbers): one round, as far as a crossing member
+            max_rounds=8 if c.faces_seen >= 2 else 1,
         )
         for i, c in enumerate(cuboids)
     ]
