@@ -87,15 +87,15 @@ def extend_along_axis(
     their points lie on the beam's extended faces.  The cuboid grows, slice by
     slice (5 cm, or 5 point spacings), over the points (not claimed by another
     beam's facets) within ``tol`` of its surface extended, while they are
-    contiguous (gaps below ``max_gap / 2``, the size of a crossing beam) and
-    while a slice holds more of them than of *spill*: points in the plane of
-    one of its faces but beside the section (``2 tol`` to a section size
-    past its edges), which is a wider surface going on there (a floor under a
-    tie beam's end, the masonry under a plate, boarding).  The cross-section is
-    kept.  The test is on the positions only: normals of the few points of a
-    sparse far end are too noisy to say which face they lie on.  One round
-    looks ``max_gap`` past each end; rounds are repeated (at most
-    ``max_rounds``) while an end moves by more than a slice.
+    contiguous (empty over at most ``max_gap / 2``, the size of a crossing
+    beam, or 10 point spacings).  Only the faces the member is seen on count (at least a
+    tenth of its own points lie on them), and points along the edges of a
+    hidden face are ignored: the floor beside a timber lying on it is in the
+    plane of the timber's hidden underside.  The cross-section is kept.  The
+    test is on the positions only: normals of the few points of a sparse far
+    end are too noisy to say which face they lie on.  One round looks
+    ``max_gap`` past each end; rounds are repeated (at most ``max_rounds``)
+    while an end moves by more than a slice.
     """
     for _ in range(max_rounds):
         longer = extend_once(xyz, free, cub, tol, max_gap, spacing)
