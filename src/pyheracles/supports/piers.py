@@ -224,30 +224,6 @@ def foot_on_wall_line(
                 return True  # two walls meeting at it: a corner piece
             one_end.append(d)
     return False
-    n_layers = max(1, int(np.ceil((FOOT_TO_M - FOOT_FROM_M) / cell)))
-    need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
-    for d, off, inl in face_lines(foot_xy, tol, rng):
-        nrm = np.array([-d[1], d[0]])
-        o_ac = own_xy @ nrm
-        lo_ac, hi_ac = np.quantile(o_ac, [0.02, 0.98])
-        if min(abs(lo_ac - off), abs(hi_ac - off)) > tol:
-            continue  # not flush with a face of the candidate
-        o_al = own_xy @ d
-        lo, hi = np.quantile(o_al, [0.02, 0.98])
-        f_al = foot_xy[inl] @ d
-        end = f_al > hi
-        dist = np.where(end, f_al - hi, lo - f_al)
-        beyond = dist > tol
-        if np.count_nonzero(beyond) < need:
-            continue
-        # per layer and per end, the bins of the line beyond the candidate holding points
-        key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
-            dist[beyond] / cell
-        ).astype(np.int64)
-        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
-        if len(np.unique(ids[counts >= need] // 2)) >= 0.5 * n_layers:
-            return True
-    return False
 
 
 #: A pier carrying nothing (a broken pier) must be a prism as wide as its section: a
