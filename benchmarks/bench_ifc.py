@@ -8,9 +8,10 @@ output folder, then against the issue's targets:
   pier, engaged_column; every beam), found by the GUID the export reports;
 * ``max_dim_err_m`` <= 1 mm: dimensions read back from each element's solid (the
   ``IfcExtrudedAreaSolid`` / ``IfcRevolvedAreaSolid`` parameters and its placement's
-  axis) against the table: radius and axial length of a column (for a solid of
-  revolution its mean station radius), length and width and height of a pier box and
-  of a member;
+  axis; the body's first item is the shaft, further items are slabs of the plinth /
+  base and capital / abacus bands) against the table: radius and axial length of a
+  column (for a solid of revolution its mean station radius), length and width and
+  height of a pier box and of a member;
 * ``validate_errors`` == 0 (``ifcopenshell.validate``, errors only);
 * surface RMS <= 1 cm: the reopened element triangulated with ``ifcopenshell.geom``
   (world coordinates), its triangles sampled by area, and for each labelled point of
@@ -125,16 +126,17 @@ def _rms(d: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean(d**2))) if len(d) else None
 
 
-def solid_dimensions(el: Any) -> dict[str, float]:
+def solid_dimensions(el: Any) -> dict[str, Any]:
     """Dimensions of an element's first body solid, read from the IFC.
 
     Extruded circle: ``radius``, ``length`` (depth); extruded rectangle: ``x``, ``y``
     (profile XDim, YDim), ``length``; solid of revolution: ``radius`` (mean of the
-    profile's interior stations), ``radius_base``, ``radius_top``, ``length`` (the
-    profile's height).  ``axis_z``: z of the placement's axis (world, unit).
+    profile's interior stations; the bench takes it at the table's ``radius_height_m``
+    when there is one), ``radius_base``, ``radius_top``, ``length`` (the profile's
+    height), ``profile`` (its stations).  ``axis_z``: z of the placement's axis (world, unit).
     """
     item = el.Representation.Representations[0].Items[0]
-    out: dict[str, float] = {}
+    out: dict[str, Any] = {}
     if item.is_a("IfcExtrudedAreaSolid"):
         area = item.SweptArea
         out["length"] = float(item.Depth)
@@ -146,6 +148,7 @@ def solid_dimensions(el: Any) -> dict[str, float]:
         ring = np.array([p.Coordinates for p in item.SweptArea.OuterCurve.Points], dtype=float)
         prof = ring[1:-2]  # closing point and the two axis points dropped
         out["radius"] = float(np.mean(prof[1:-1, 0]))
+        out["profile"] = prof  # (radius, height) stations: the radius at a table height
         out["radius_base"], out["radius_top"] = float(prof[0, 0]), float(prof[-1, 0])
         out["length"] = float(np.ptp(prof[:, 1]))
     ax = el.ObjectPlacement.RelativePlacement.Axis
@@ -249,6 +252,12 @@ def score_draw(family: str, seed: int, d: Path) -> dict:
             continue
         el = ifc.by_guid(guid)
         got, want = solid_dimensions(el), expected_dimensions(row, family)
+        at = float(row.get("radius_height_m", np.nan))
+        if "profile" in got and math.isfinite(at):  # the table's radius holds at that height
+            prof = got.pop("profile")
+            t_at = at / max(abs(float(row["axis_z"])), 1e-6)
+            got["radius"] = float(np.interp(t_at, prof[:, 1], prof[:, 0]))
+        got.pop("profile", None)
         e["ifc"] = el.is_a() + ("/revolved" if "radius_base" in got else "")
         errs = {k: abs(got[k] - float(v)) if k in got and math.isfinite(float(v))
                 else float("inf") for k, v in want.items()}  # fmt: skip

@@ -11,7 +11,10 @@ writes one IFC 4 model:
   a note).
 * Columns: IfcColumn (COLUMN) with an extruded circle along the fitted axis, or,
   when the radius measured along the axis changes (taper, entasis), a solid of
-  revolution of the measured radii (:func:`radius_profile`);
+  revolution of the measured radii (:func:`radius_profile`); the plinth / base and
+  capital / abacus bands of the objects table (``base_top_m``, ``capital_bottom_m``)
+  as further body items, slabs of the outline their points reach per layer
+  (:func:`part_slabs`), on piers too;
   engaged columns: IfcColumn PILASTER; piers: IfcColumn with an extruded rectangle
   (orientation from the pier's points).
 * Beams: IfcBeam (within 10 deg of horizontal) or IfcMember (BRACE when inclined,
@@ -43,6 +46,7 @@ __all__ = [
     "axis_base",
     "export_ifc",
     "export_ifc_folders",
+    "part_slabs",
     "radius_profile",
     "read_result_folder",
     "section_roll",
@@ -67,6 +71,10 @@ ROLE_TO_IFC = {
 #: Objects-table columns of the frame analysis copied into a member's property set.
 FRAME_FIELDS = ("role", "in_frame", "component", "n_joints", "deflection_mm", "twist_deg",
                 "height_measured")  # fmt: skip
+
+#: Objects-table columns of a support copied into its property set (inclination, parts).
+PART_FIELDS = ("lean_m", "lean_azimuth_deg", "radius_bottom_m", "radius_top_m",
+               "radius_height_m", "base_top_m", "capital_bottom_m")  # fmt: skip
 
 Array = np.ndarray
 
@@ -295,6 +303,7 @@ def radius_profile(
     min_change_m: float = 0.005,
     radius: float | None = None,
     band: float = 0.3,
+    at: float | None = None,
 ) -> Array | None:
     """(radius, height) of a column at ``stations`` heights, or None for a straight one.
 
@@ -308,9 +317,11 @@ def radius_profile(
     scatter of the points about their slice's radius; else as a cylinder.  The
     stations run from the base (0) to ``length``; slices with fewer than 20 points are
     interpolated from their neighbours.  ``radius`` (the fitted cylinder's, from the
-    objects table) sets the window and the level: the radii are shifted so that their
-    mean over the measured stations is ``radius`` (the solid agrees with the table;
-    the change of radius along the axis is what is measured).  Without it the window
+    objects table) sets the window and the level: the radii are shifted so that the
+    profile's radius at ``at`` (height along the axis where the table's radius holds:
+    its ``radius_height_m``) is ``radius``, without ``at`` so that their mean over the
+    measured stations is (the solid agrees with the table; the change of radius along
+    the axis is what is measured).  Without it the window
     is from the median distance to the axis and the radii are as measured.
     """
     if len(pts) < 20 * stations or not math.isfinite(length) or length <= 0:
@@ -338,13 +349,137 @@ def radius_profile(
     noise = float(np.median(spread))
     if np.ptp(r) <= max(min_change_m, 3 * noise):
         return None
-    if radius is not None and math.isfinite(radius):
-        r = r + (radius - float(r.mean()))
     # end stations from the nearest slices' trend, so the solid spans the whole height
     lo = r[0] + (r[0] - r[1]) * 0.5
     hi = r[-1] + (r[-1] - r[-2]) * 0.5
-    radii = np.r_[lo, r, hi]
-    return np.column_stack([np.clip(radii, 1e-3, None), np.r_[0.0, mid, length]])
+    radii, heights = np.r_[lo, r, hi], np.r_[0.0, mid, length]
+    if radius is not None and math.isfinite(radius):
+        if at is not None and math.isfinite(at):  # the table's radius holds at ``at``
+            radii = radii + (radius - float(np.interp(at, heights, radii)))
+        else:
+            radii = radii + (radius - float(radii[1:-1].mean()))
+    return np.column_stack([np.clip(radii, 1e-3, None), heights])
+
+
+def part_slabs(
+    local: Array,
+    lo: float,
+    hi: float,
+    *,
+    noise: float = 0.005,
+    layer_m: float = 0.03,
+    sectors: int = 72,
+    min_points: int = 3,
+) -> list[tuple[Array, float, float]]:
+    """Outlines of a support's plinth, base, capital or abacus: (ring, t0, t1) slabs.
+
+    ``local`` are the support's points in its element frame (x, y across the axis, t
+    along it from the base); the band ``lo`` .. ``hi`` along the axis (from the
+    objects table's ``base_top_m`` / ``capital_bottom_m``, one layer more each side) is
+    cut into layers of ``layer_m``; a layer's reach is the distance from the axis of
+    its outer surface (the median of the points within ``2.5 noise`` below its 95th
+    percentile distance: the sides of a square plinth or abacus, a torus, an echinus;
+    not a top face, not the noise's outer tail).  Runs of layers whose reach stays
+    within ``max(2.5 noise, 1 cm)`` of the run's median (a plinth, a step of a torus,
+    an abacus) make one slab, so a sparse band is judged on all its points and the
+    steps fall where the reach changes.  A slab's outline is star-shaped about the
+    axis: per sector of angle (``sectors`` of them) with at least ``min_points``
+    points, a vertex at the centroid of its outer surface's points; fewer than 3
+    sectors give no slab.  A sparse slab (fewer than 4 x ``min_points`` points a
+    sector) is outlined by the convex hull of its points moved ``noise`` inwards.
+    Each slab is then extruded from ``t0`` to ``t1`` as an extra body item.
+    """
+    out: list[tuple[Array, float, float]] = []
+    if len(local) == 0 or not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return out
+    t = local[:, 2]
+    sel = (t >= lo) & (t <= hi)
+    q, tq = local[sel, :2], t[sel]
+    d = np.hypot(q[:, 0], q[:, 1])
+    ang = np.arctan2(q[:, 1], q[:, 0]) % (2 * math.pi)
+    n = max(1, math.ceil((hi - lo) / layer_m))
+    edges = np.linspace(lo, hi, n + 1)
+    lay = np.clip(np.searchsorted(edges, tq, side="right") - 1, 0, n - 1)
+    win = 2.5 * max(noise, 0.002)
+
+    def outer(dd: Array) -> float:  # the outer surface's distance among distances dd
+        top = float(np.quantile(dd, 0.95))
+        return float(np.median(dd[dd >= top - win]))
+
+    reach = np.array([outer(d[lay == i]) if (lay == i).sum() >= min_points else np.nan
+                      for i in range(n)])  # fmt: skip
+    seen = np.flatnonzero(np.isfinite(reach))
+    if len(seen) == 0:
+        return out
+    reach = np.interp(np.arange(n), seen, reach[seen])
+    # runs of layers of one reach (a plinth, a torus step, an abacus): one slab each
+    step = max(2.5 * noise, 0.01)
+    groups, first = [], 0
+    for i in range(1, n + 1):
+        if i == n or abs(reach[i] - float(np.median(reach[first:i]))) > step:
+            groups.append((first, i))
+            first = i
+    for g0, g1 in groups:
+        m = (lay >= g0) & (lay < g1)
+        if m.sum() < 3 * min_points:
+            continue
+        if m.sum() < 4 * min_points * sectors:  # sparse: the hull of the points, less
+            ring = _hull(q[m], noise)  # the noise (each point is on the surface)
+            if ring is not None:
+                out.append((ring, float(edges[g0]), float(edges[g1])))
+            continue
+        ns = sectors
+        sec = np.minimum((ang[m] * (ns / (2 * math.pi))).astype(np.intp), ns - 1)
+        dm, qm = d[m], q[m]
+        ring_l = []
+        for j in range(ns):
+            dd = dm[sec == j]
+            if len(dd) >= min_points:  # the vertex: the centroid of the outer surface's
+                top = float(np.quantile(dd, 0.95))  # points (on a flat side: on it)
+                ring_l.append(qm[sec == j][dd >= top - win].mean(axis=0))
+        if len(ring_l) < 3:
+            continue
+        ring = np.asarray(ring_l)
+        out.append((ring, float(edges[g0]), float(edges[g1])))
+    return out
+
+
+def _hull(q: Array, inset: float) -> Array | None:
+    """Convex hull of 2-D points ``q`` moved ``inset`` inwards (None if degenerate)."""
+    import shapely
+
+    poly = shapely.MultiPoint(q).convex_hull
+    if poly.geom_type != "Polygon":
+        return None
+    inner = poly.buffer(-inset, join_style="mitre") if inset > 0 else poly
+    if inner.is_empty or inner.geom_type != "Polygon" or inner.area < 0.5 * poly.area:
+        inner = poly
+    return np.asarray(inner.exterior.coords)[:-1]
+
+
+def _band_items(w: _Writer, local: Array, base_top: float, cap_bottom: float, length: float,
+                noise: float, layer_m: float = 0.03) -> list[Any]:  # fmt: skip
+    """Extruded slabs of a support's base and capital bands (:func:`part_slabs`)."""
+    items = []
+    t = local[:, 2] if len(local) else np.zeros(1)
+    bands = []
+    if math.isfinite(base_top):
+        bands.append((min(float(t.min()), 0.0) - layer_m, base_top + layer_m))
+    if math.isfinite(cap_bottom):
+        bands.append((cap_bottom - layer_m, max(float(t.max()), length) + layer_m))
+    for lo, hi in bands:
+        for ring, t0, t1 in part_slabs(local, lo, hi, noise=noise, layer_m=layer_m):
+            items.append(w.solid(w.polygon(ring), t1 - t0, t0))
+    return items
+
+
+def _local(pts: Array, base: Array, axis: Array, x: Array) -> Array:
+    """Points in an element frame: origin ``base``, z ``axis``, x ``x`` (made orthogonal)."""
+    z = axis / np.linalg.norm(axis)
+    xh = x - (x @ z) * z
+    xh = xh / np.linalg.norm(xh)
+    rel = pts - base
+    return np.c_[rel @ xh, rel @ np.cross(z, xh), rel @ z]
 
 
 def axis_base(
@@ -439,14 +574,22 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
         if not math.isfinite(height):
             height = float(r["height_m"])
         pts = _points_of(cloud, inst)
+        base_top = float(r.get("base_top_m", np.nan))
+        cap_bottom = float(r.get("capital_bottom_m", np.nan))
+        noise = min(float(r["fit_rms_m"]), 0.01) if math.isfinite(float(r["fit_rms_m"])) else 0.005
         if cls == "pier":
             length, width = float(r["box_length_m"]), float(r["box_width_m"])
             if not (math.isfinite(length) and math.isfinite(width)):
                 rep.notes.append(f"support {inst}: no box fitted, not written")
                 continue
             a = section_roll(pts[:, :2] - base[:2], length, width)  # plan angle of the length
-            place = w.placement(base, (0, 0, 1), (math.cos(a), math.sin(a), 0.0))
-            shape = w.shape([w.solid(w.rectangle(length, width), height)])
+            xdir = np.array([math.cos(a), math.sin(a), 0.0])
+            place = w.placement(base, (0, 0, 1), xdir)
+            items = [w.solid(w.rectangle(length, width), height)]
+            if math.isfinite(base_top) or math.isfinite(cap_bottom):
+                loc = _local(pts, base, np.array([0.0, 0.0, 1.0]), xdir)
+                items += _band_items(w, loc, base_top, cap_bottom, height, noise)
+            shape = w.shape(items)
             predefined, dims = "COLUMN", {"length_m": length, "width_m": width}
             tilt = 0.0
         else:
@@ -461,13 +604,20 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             x = np.cross(axis, [0.0, 1.0, 0.0]) if abs(axis[0]) < 0.9 else np.cross(axis, [0, 0, 1])
             place = w.placement(base, axis, x)
             length = height / max(abs(axis[2]), 1e-6)
-            profile = radius_profile(pts, base, axis, length, radius=radius)
+            at = float(r.get("radius_height_m", np.nan)) / max(abs(float(axis[2])), 1e-6)
+            profile = radius_profile(pts, base, axis, length, radius=radius, at=at)
             predefined = "PILASTER" if cls == "engaged_column" else "COLUMN"
             dims = {"radius_m": radius}
-            if profile is None:
-                shape = w.shape([w.solid(w.circle(radius), length)])
-            else:  # taper or entasis: the measured radii revolved about the axis
-                shape = w.shape([w.revolved(profile)])
+            # the shaft first (its dimensions are the table's), then base and capital slabs
+            items = [w.solid(w.circle(radius), length) if profile is None
+                     else w.revolved(profile)]  # fmt: skip
+            if math.isfinite(base_top) or math.isfinite(cap_bottom):
+                # table heights are z of the axis above z_min: along the axis / axis_z
+                az = max(abs(float(axis[2])), 1e-6)
+                items += _band_items(w, _local(pts, base, axis, x), base_top / az,
+                                     cap_bottom / az, length, noise)  # fmt: skip
+            shape = w.shape(items)
+            if profile is not None:  # taper or entasis: the measured radii revolved
                 dims |= {
                     "radius_base_m": float(profile[0, 0]),
                     "radius_top_m": float(profile[-1, 0]),
@@ -479,6 +629,7 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             "fit_rms_m": float(r["fit_rms_m"]), "faces_seen": "all round" if
             cls == "column" else "partly (engaged)" if cls == "engaged_column" else "sides",
             "tilt_deg": tilt, "height_m": height, **dims,
+            **{k: float(r[k]) for k in PART_FIELDS if k in r.index},
             "circularity": float(r.get("circularity", np.nan)),
         })  # fmt: skip
         rep.guids[inst] = el.GlobalId

@@ -1,6 +1,21 @@
-"""Primitives of the supports: cylinders of columns, boxes of piers; plausibility."""
+"""Primitives of the supports: cylinders of columns, boxes of piers; plausibility.
+
+Columns of the objects table (:func:`describe`) beyond the primitive: the support's
+inclination ``tilt_deg`` (axis from the vertical), ``lean_m`` (horizontal offset of
+the axis over the support's height) and ``lean_azimuth_deg`` (direction of that
+offset, degrees clockwise from +y, grid north), the shaft's ``radius_bottom_m`` and
+``radius_top_m`` (a tapered cylinder; ``radius_m`` is the radius of the cylinder of
+the section's shaft points, at ``radius_height_m`` above ``z_min``), and its parts as
+heights above ``z_min``: ``base_top_m`` (top of the plinth / base band) and
+``capital_bottom_m`` (bottom of the capital / abacus band), NaN when the support has
+none (:func:`part_bands`).  A column's axis (``axis_x/y/z``, ``x``, ``y`` on it) is
+that of its whole shaft (:func:`shaft_axis`).
+"""
 
 from __future__ import annotations
+
+import math
+from typing import Any
 
 import numpy as np
 
@@ -21,10 +36,158 @@ def dedupe(shapes: list[dict]) -> list[dict]:
     return kept
 
 
+def fit_cone(
+    pts: Array, point: Array, axis: Array, radius: float, *, f_scale: float = 0.005,
+    max_slope: float = 0.05,
+) -> tuple[Array, Array, float, float, float] | None:  # fmt: skip
+    """Truncated cone through a shaft's surface points, from a fitted cylinder.
+
+    The radius changes linearly along the axis (a tapered shaft); axis direction,
+    axis position, radius and slope are refined together (robust soft-L1 loss of scale
+    ``f_scale``).  A tapered shaft seen from one side pulls a cylinder's axis towards
+    its visible side by the taper angle; the cone does not.  Returns (axis point at the
+    points' mean height along the axis, unit axis z up, radius there, residual RMS,
+    slope of the radius along the axis), or
+    None when the fit fails, is worse than the cylinder or tapers by more than
+    ``max_slope`` (m per m).
+    """
+    from scipy.optimize import least_squares
+
+    if len(pts) < 50:
+        return None
+    a0 = np.asarray(axis, dtype=np.float64)
+    a0 = a0 / np.linalg.norm(a0)
+    if a0[2] < 0:
+        a0 = -a0
+    e1 = np.cross(a0, [1.0, 0.0, 0.0] if abs(a0[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a0, e1)
+    rel0 = pts - point
+
+    def geom(x: Array) -> tuple[Array, Array]:
+        a = a0 + x[0] * e1 + x[1] * e2
+        return point + x[2] * e1 + x[3] * e2, a / np.linalg.norm(a)
+
+    def res(x: Array) -> Array:
+        c, a = geom(x)
+        rel = pts - c
+        t = rel @ a
+        d = np.linalg.norm(rel - np.outer(t, a), axis=1)
+        return d - (x[4] + x[5] * t)
+
+    cyl_res = np.linalg.norm(rel0 - np.outer(rel0 @ a0, a0), axis=1) - radius
+    try:
+        sol = least_squares(res, np.array([0, 0, 0, 0, radius, 0.0]), loss="soft_l1",
+                            f_scale=f_scale, x_scale=1e-3)  # fmt: skip
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not sol.success or abs(sol.x[5]) > max_slope:
+        return None
+    r = res(sol.x)
+    rms, rms_cyl = float(np.sqrt(np.mean(r**2))), float(np.sqrt(np.mean(cyl_res**2)))
+    if not np.isfinite(rms) or rms > rms_cyl:
+        return None
+    c, a = geom(sol.x)
+    tm = float(np.mean((pts - c) @ a))
+    return c + tm * a, a, float(sol.x[4] + sol.x[5] * tm), rms, float(sol.x[5])
+
+
+def centre_line(pts: Array, slab_m: float = 0.25) -> tuple[Array, Array] | None:
+    """(point, unit direction, z up) of the line through the centres of a column's slabs.
+
+    Each horizontal slab of ``slab_m`` gets an algebraic circle fit of its points (a
+    plinth, a base, a capital or an abacus seen all round is centred on the axis too);
+    the line is a least-squares fit of x and y against z over the slabs, refitted
+    without the slabs more than 3 robust sigma off it.  None with fewer than 4 slabs.
+    """
+    if len(pts) < 100:
+        return None
+    z = pts[:, 2]
+    n = int(np.ptp(z) // slab_m)
+    if n < 4:
+        return None
+    k = np.clip(((z - z.min()) / slab_m).astype(np.intp), 0, n - 1)
+    cz, cxy = [], []
+    for i in range(n):
+        q = pts[k == i]
+        if len(q) < 30:
+            continue
+        m = q[:, :2].mean(axis=0)
+        a = np.c_[2 * (q[:, :2] - m), np.ones(len(q))]
+        b = ((q[:, :2] - m) ** 2).sum(axis=1)
+        sol = np.linalg.lstsq(a, b, rcond=None)[0]
+        cz.append(float(q[:, 2].mean()))
+        cxy.append(m + sol[:2])
+    if len(cz) < 4:
+        return None
+    cz_a, cxy_a = np.asarray(cz), np.asarray(cxy)
+    keep = np.ones(len(cz_a), dtype=bool)
+    for _ in range(2):
+        fx = np.polyfit(cz_a[keep], cxy_a[keep, 0], 1)
+        fy = np.polyfit(cz_a[keep], cxy_a[keep, 1], 1)
+        off = np.hypot(cxy_a[:, 0] - np.polyval(fx, cz_a), cxy_a[:, 1] - np.polyval(fy, cz_a))
+        s = 1.4826 * float(np.median(off))
+        new = off <= max(3 * s, 0.005)
+        if new.sum() < 4 or np.array_equal(new, keep):
+            break
+        keep = new
+    z0 = float(np.median(cz_a))
+    d = np.array([fx[0], fy[0], 1.0])
+    return np.array([np.polyval(fx, z0), np.polyval(fy, z0), z0]), d / np.linalg.norm(d)
+
+
+def inliers(cyl: Any, pts: Array, tol: float) -> int:
+    """Points of ``pts`` within ``tol`` of a fitted cylinder's surface."""
+    return int(np.count_nonzero(np.abs(cyl.residuals(pts)) <= tol))
+
+
+def shaft_axis(pts: Array, cyl: Any, tol: float) -> tuple[Array, Array, float]:
+    """(point, unit axis, radius) of a column's whole shaft: its inclination.
+
+    The section's shaft points (``rho`` within ``tol``) mark a leaning column on one
+    side only away from the section, and a cylinder fitted to a tapered shaft seen
+    from one side leans by the taper angle.  So: the shaft's points about the line of
+    the slabs' centres (:func:`centre_line`) or about the section's cylinder ``cyl``,
+    whichever start holds more points within ``tol``; a cylinder refitted to the points
+    within ``tol`` of it (up to three times); then a cone (:func:`fit_cone`).
+    """
+    sample = pts if len(pts) <= 2000 else pts[np.linspace(0, len(pts) - 1, 2000).astype(np.intp)]
+    best, fit_pts = cyl, sample[np.abs(cyl.residuals(sample)) <= tol]
+    hint = centre_line(pts)
+    if hint is not None:
+        rel = sample - hint[0]
+        dd = np.linalg.norm(rel - np.outer(rel @ hint[1], hint[1]), axis=1)
+        start = sample[np.abs(dd - float(np.median(dd))) <= tol]
+        alt = fit_cylinder(start, axis_hint=hint[1], f_scale=tol / 2) if len(start) >= 20 else None
+        if alt and inliers(alt, sample, tol) > len(fit_pts):
+            best, fit_pts = alt, start
+    for _ in range(3):
+        near = sample[np.abs(best.residuals(sample)) <= tol]
+        new = fit_cylinder(near, axis_hint=best.axis, f_scale=tol / 2) if len(near) >= 20 else None
+        if not new:
+            break
+        moved = float(np.linalg.norm(np.cross(new.axis, best.axis)))
+        best, fit_pts = new, near
+        if moved < 1e-4:
+            break
+    few = fit_pts[np.linspace(0, len(fit_pts) - 1, min(len(fit_pts), 1000)).astype(np.intp)]
+    cone = fit_cone(few, best.point, best.axis, best.radius, f_scale=max(tol / 4, 1e-3))
+    if cone is not None:
+        return cone[0], cone[1], cone[2]
+    return best.point, best.axis, best.radius
+
+
 def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
-    """Objects-table row of one support (its points ``pts``) with its fitted primitive."""
+    """Objects-table row of one support (its points ``pts``) with its fitted primitive.
+
+    ``rho`` is each point's offset from the section's shape (within ``tol``: the
+    section's shaft), ``sh`` the section shape, ``tol`` the surface tolerance (m).
+    Columns as in the module docstring; piers get ``base_top_m`` / ``capital_bottom_m``
+    from the reach of their layers beyond the fitted box.
+    """
     shaft = np.abs(rho) <= tol
     fit_pts = pts[shaft] if shaft.sum() >= 20 else pts
+    z_ref = float(np.median(fit_pts[:, 2]))  # the section's height: radius_m is there
     if len(fit_pts) > 3000:  # the fit is as good on a spread sample and much faster
         fit_pts = fit_pts[np.linspace(0, len(fit_pts) - 1, 3000).astype(np.intp)]
     nan = float("nan")
@@ -37,6 +200,7 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
         "z_max": float(pts[:, 2].max()),
         "height_m": float(np.ptp(pts[:, 2])),
         "radius_m": nan,
+        "radius_height_m": nan,
         "axis_x": nan,
         "axis_y": nan,
         "axis_z": nan,
@@ -45,6 +209,13 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
         "box_height_m": nan,
         "fit_rms_m": nan,
         "circularity": sh.get("circularity", nan),
+        "tilt_deg": nan,
+        "lean_m": nan,
+        "lean_azimuth_deg": nan,
+        "radius_bottom_m": nan,
+        "radius_top_m": nan,
+        "base_top_m": nan,
+        "capital_bottom_m": nan,
     }
     if sh["class"] in ("column", "engaged_column"):
         cyl = fit_cylinder(fit_pts, axis_hint=(0.0, 0.0, 1.0), f_scale=tol / 2)
@@ -54,16 +225,23 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
             close = np.abs(res - np.median(res)) <= max(3 * sigma, 1e-4)
             if close.sum() >= 20:
                 cyl = fit_cylinder(fit_pts[close], axis_hint=cyl.axis, f_scale=max(sigma, 1e-3))
-        if cyl:
+        if cyl:  # radius and fit RMS: the cylinder of the section's shaft points
             row.update(
                 x=float(cyl.point[0]),
                 y=float(cyl.point[1]),
                 radius_m=cyl.radius,
+                radius_height_m=z_ref - row["z_min"],
                 axis_x=float(cyl.axis[0]),
                 axis_y=float(cyl.axis[1]),
                 axis_z=float(cyl.axis[2]),
                 fit_rms_m=cyl.rms,
             )
+            # the axis of the whole shaft (a leaning, a tapered column), through its points
+            point, axis, radius = shaft_axis(pts, cyl, tol)
+            axis = axis if axis[2] >= 0 else -axis
+            row.update(x=float(point[0]), y=float(point[1]), axis_x=float(axis[0]),
+                       axis_y=float(axis[1]), axis_z=float(axis[2]))  # fmt: skip
+            row.update(column_shape(pts, point, axis, radius, tol))
     else:
         box = fit_oriented_box(fit_pts, up=(0.0, 0.0, 1.0))
         if box:
@@ -80,9 +258,156 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
                 axis_y=float(box.axes[1, 0]),
                 axis_z=float(box.axes[2, 0]),
             )
+            h = [k for k in range(3) if k != vert]
+            local = (pts - box.centre) @ box.axes[:, h]  # plan coordinates in the box frame
+            reach = np.max(np.abs(local) / (0.5 * box.extents[h]), axis=1)  # 1 on the sides
+            noise = max(float(box.rms), 0.25 * tol) / (0.5 * float(min(box.extents[h])))
+            base, cap = part_bands(pts[:, 2] - row["z_min"], reach, np.ones(len(pts)), noise)
+            row.update(base_top_m=base, capital_bottom_m=cap)
     if np.isnan(row["x"]):
         row["x"], row["y"] = (float(v) for v in sh["centre"])
     return row
+
+
+def lean(axis: Array, height: float) -> dict[str, float]:
+    """Inclination of a support's ``axis`` (unit, 3D) over its ``height`` (m).
+
+    Returns ``tilt_deg`` (angle from the vertical), ``lean_m`` (horizontal offset of
+    the axis over ``height``) and ``lean_azimuth_deg`` (direction the axis leans to, in
+    degrees clockwise from +y, grid north, in [0, 360); 0 for a vertical axis).
+    """
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    if a[2] < 0:
+        a = -a
+    tilt = math.degrees(math.acos(min(1.0, float(a[2]))))
+    horiz = float(np.hypot(a[0], a[1]))
+    off = height * horiz / max(float(a[2]), 1e-9)
+    az = math.degrees(math.atan2(float(a[0]), float(a[1]))) % 360.0 if horiz > 1e-12 else 0.0
+    return {"tilt_deg": tilt, "lean_m": off, "lean_azimuth_deg": az}
+
+
+def part_bands(
+    h: Array, reach: Array, ref: Array, noise: float, *, layer_m: float = 0.02,
+    max_share: float = 0.4, min_points: int = 5,
+) -> tuple[float, float]:  # fmt: skip
+    """(base_top, capital_bottom) heights of a support's parts above its bottom.
+
+    ``h`` are the points' heights above the support's bottom (along its axis),
+    ``reach`` their distance from the axis (or the box frame's reach), ``ref`` the
+    shaft's radius at each point's height.  The support is cut into layers of
+    ``layer_m``; a layer is wider than the shaft when the 90th percentile of
+    ``reach - ref`` among its points exceeds ``max(3 noise, 1 cm)``.  The base band
+    is the run of such layers from the bottom (the first layer may be narrow: the
+    floor's edge), the capital band the run from the top, each at most ``max_share``
+    of the height; NaN where there is no such run.
+    """
+    nan = float("nan")
+    if len(h) < 4 * min_points:
+        return nan, nan
+    top = float(h.max())
+    n = max(1, math.ceil(top / layer_m))
+    k = np.clip((h / layer_m).astype(np.intp), 0, n - 1)
+    over = reach - ref
+    thr = max(3.0 * noise, 0.01)
+    wide = np.zeros(n, dtype=bool)
+    seen = np.zeros(n, dtype=bool)
+    order = np.argsort(k, kind="stable")
+    ks, vs = k[order], over[order]
+    starts = np.searchsorted(ks, np.arange(n + 1))
+    for i in range(n):
+        v = vs[starts[i] : starts[i + 1]]
+        if len(v) >= min_points:
+            seen[i] = True
+            wide[i] = float(np.quantile(v, 0.9)) > thr
+    lim = max(1, int(max_share * n))
+
+    def run(idx: range) -> int:  # wide layers from one end (empty layers carry on)
+        last = -1
+        for j, i in enumerate(idx):
+            if j >= lim:
+                return 0  # wider over too much of the height: no band, a poor shaft radius
+            if not seen[i]:
+                continue
+            if not wide[i]:
+                if j == 0:
+                    continue  # the floor's or the ceiling's edge
+                break
+            last = j
+        return last + 1
+
+    nb, nc = run(range(n)), run(range(n - 1, -1, -1))
+    base = min(nb * layer_m, top) if nb else nan
+    cap = max(top - nc * layer_m, 0.0) if nc else nan
+    return base, cap
+
+
+def column_shape(pts: Array, point: Array, axis: Array, radius: float, tol: float) -> dict:
+    """Inclination, end radii of the shaft and parts of a column from its points.
+
+    The radius along the axis is fitted as a line to the per-layer medians of the
+    distances to the axis of the points within ``max(3 tol, 0.15 radius)`` of the
+    cylinder (the shaft's surface), outside the base and capital bands
+    (:func:`part_bands` on the 90th percentile reach of each layer); the end radii are
+    that line at the shaft's two ends.  ``base_top_m`` and ``capital_bottom_m`` are the
+    heights above ``z_min`` of the axis where the bands end (found along the axis).
+    """
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    if a[2] < 0:
+        a = -a
+    z_min, z_span = float(pts[:, 2].min()), float(np.ptp(pts[:, 2]))
+    if len(pts) > 12000:  # a spread sample measures the profile as well, much faster
+        pts = pts[np.linspace(0, len(pts) - 1, 12000).astype(np.intp)]
+    rel = pts - point
+    t = rel @ a
+    d = np.linalg.norm(rel - np.outer(t, a), axis=1)
+    t0 = float(t.min())
+    h = t - t0
+    length = float(h.max()) if len(h) else 0.0
+    out = lean(a, z_span)
+    ring = np.abs(d - radius) <= max(3.0 * tol, 0.15 * radius)
+    if ring.sum() < 20 or length <= 0:
+        return out
+
+    def line(lo: float, hi: float) -> np.ndarray | None:  # r(h) = c0 + c1 h on the shaft
+        sel = ring & (h >= lo) & (h <= hi)
+        if sel.sum() < 20:
+            return None
+        nl = max(2, int((hi - lo) / 0.05))
+        kk = np.clip(((h[sel] - lo) / max(hi - lo, 1e-9) * nl).astype(np.intp), 0, nl - 1)
+        hm, rm = [], []
+        for i in range(nl):
+            m = kk == i
+            if m.sum() >= 5:
+                hm.append(float(np.median(h[sel][m])))
+                rm.append(float(np.median(d[sel][m])))
+        if len(hm) < 2:
+            return np.array([float(np.median(d[sel])), 0.0])
+        return np.polyfit(hm, rm, 1)[::-1]
+
+    coef = line(0.0, length)
+    if coef is None:
+        return out
+    res = d[ring] - (coef[0] + coef[1] * h[ring])  # the surface's scatter about its taper
+    noise = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+    base, cap = part_bands(h, d, coef[0] + coef[1] * h, noise)
+    lo = 0.0 if math.isnan(base) else base
+    hi = length if math.isnan(cap) else cap
+    coef = line(lo, hi) if hi - lo > 0.1 * length else coef
+    if coef is None:
+        return out
+
+    def above(hh: float) -> float:  # height along the axis -> z of the axis above z_min
+        return float(point[2] + (t0 + hh) * a[2] - z_min) if math.isfinite(hh) else math.nan
+
+    out.update(
+        radius_bottom_m=float(coef[0] + coef[1] * lo),
+        radius_top_m=float(coef[0] + coef[1] * hi),
+        base_top_m=above(base),
+        capital_bottom_m=above(cap),
+    )
+    return out
 
 
 def implausible(row: dict, pts: Array, sc: Scales) -> str:
