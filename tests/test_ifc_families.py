@@ -19,7 +19,8 @@ import ifcopenshell.geom
 from scipy.spatial import cKDTree
 
 from pyheracles.cloud import PointCloud
-from pyheracles.export.ifc import export_ifc, section_roll, surface_radius
+from pyheracles.export.element_shapes import section_roll, surface_radius
+from pyheracles.export.ifc import export_ifc
 from pyheracles.io.results import write_segmentation
 from pyheracles.labels import Segmentation
 

@@ -19,7 +19,8 @@ import ifcopenshell.geom
 from scipy.spatial import cKDTree
 
 from pyheracles.cloud import PointCloud
-from pyheracles.export.ifc import export_ifc, part_slabs
+from pyheracles.export.element_shapes import part_slabs
+from pyheracles.export.ifc import export_ifc
 from pyheracles.io.results import write_segmentation
 from pyheracles.labels import Segmentation
 from test_supports_primitives import leaning_column, table_row
