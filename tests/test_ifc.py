@@ -12,8 +12,8 @@ import ifcopenshell
 import ifcopenshell.geom
 import ifcopenshell.util.element
 import ifcopenshell.validate
-from scipy.spatial import cKDTree
 
+from ifc_surface import surface_rms
 from pyheracles.cloud import PointCloud
 from pyheracles.export.ifc import export_ifc
 from pyheracles.io.results import write_segmentation
@@ -36,28 +36,6 @@ def _box_sides(c, a, b, ang, z0, z1, n=4000, rng=None):
     R = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
     xy = np.c_[u, v] @ R.T + c
     return np.c_[xy, rng.uniform(z0, z1, n)]
-
-
-def _surface_rms(ifc, guid: str, pts_world: np.ndarray, offset: np.ndarray) -> float:
-    settings = ifcopenshell.geom.settings()
-    settings.set("use-world-coords", True)
-    shape = ifcopenshell.geom.create_shape(settings, ifc.by_guid(guid))
-    v = np.asarray(shape.geometry.verts).reshape(-1, 3)
-    f = np.asarray(shape.geometry.faces).reshape(-1, 3)
-    rng = np.random.default_rng(1)
-    tri = v[f]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    k = rng.choice(len(tri), 200_000, p=area / area.sum())
-    a, b = rng.random((2, len(k)))
-    flip = a + b > 1
-    a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
-    samples = (
-        tri[k, 0] + a[:, None] * (tri[k, 1] - tri[k, 0]) + b[:, None] * (tri[k, 2] - tri[k, 0])
-    )
-    mc = ifc.by_type("IfcMapConversion")[0]
-    origin = np.array([mc.Eastings, mc.Northings, mc.OrthogonalHeight])
-    d, _ = cKDTree(samples).query(pts_world - origin)
-    return float(np.sqrt(np.mean(d**2)))
 
 
 def _folder(tmp_path, step, xyz, inst, objects):
@@ -106,7 +84,7 @@ def test_supports_to_ifc(tmp_path) -> None:
         el = ifc.by_guid(rep.guids[i])
         props = ifcopenshell.util.element.get_psets(el)["Heracles_Provenance"]
         assert props["instance"] == i and props["n_points"] == len(pts)
-        assert _surface_rms(ifc, rep.guids[i], pts, OFFSET) < 0.01
+        assert surface_rms(ifc, rep.guids[i], pts, 200_000) < 0.01
     solid = ifc.by_guid(rep.guids[1]).Representation.Representations[0].Items[0]
     assert abs(solid.SweptArea.Radius - 0.25) < 1e-3 and abs(solid.Depth - 4.0) < 1e-3
     solid = ifc.by_guid(rep.guids[2]).Representation.Representations[0].Items[0]
@@ -139,7 +117,7 @@ def test_beam_to_ifc(tmp_path) -> None:
     solid = ifc.by_guid(rep.guids[1]).Representation.Representations[0].Items[0]
     assert abs(solid.Depth - 4.0) < 1e-3
     assert abs(solid.SweptArea.XDim - 0.12) < 1e-3 and abs(solid.SweptArea.YDim - 0.2) < 1e-3
-    assert _surface_rms(ifc, rep.guids[1], pts, OFFSET) < 0.01
+    assert surface_rms(ifc, rep.guids[1], pts, 200_000) < 0.01
 
 
 def test_tapered_column_is_a_solid_of_revolution(tmp_path) -> None:
@@ -166,5 +144,5 @@ def test_tapered_column_is_a_solid_of_revolution(tmp_path) -> None:
     assert el.Representation.Representations[0].Items[0].is_a("IfcRevolvedAreaSolid")
     props = ifcopenshell.util.element.get_psets(el)["Heracles_Provenance"]
     assert abs(props["radius_base_m"] - 0.30) < 0.006 and abs(props["radius_top_m"] - 0.22) < 0.006
-    assert _surface_rms(ifc, rep.guids[1], col, OFFSET) < 0.005
+    assert surface_rms(ifc, rep.guids[1], col, 200_000) < 0.005
     # the straight column of test_supports_to_ifc stays an extruded circle (covered there)

@@ -16,8 +16,8 @@ pytest.importorskip("ifcopenshell")
 
 import ifcopenshell
 import ifcopenshell.geom
-from scipy.spatial import cKDTree
 
+from ifc_surface import surface_rms
 from pyheracles.cloud import PointCloud
 from pyheracles.export.element_shapes import section_roll, surface_radius
 from pyheracles.export.ifc import export_ifc
@@ -36,25 +36,6 @@ def _export(tmp_path, step, xyz, objects):
     write_segmentation(cloud, seg, tmp_path / step, step=step)
     rep = export_ifc(tmp_path / step, tmp_path / "m.ifc")
     return ifcopenshell.open(str(tmp_path / "m.ifc")), rep
-
-
-def _rms(ifc, guid, pts_world) -> float:
-    settings = ifcopenshell.geom.settings()
-    settings.set("use-world-coords", True)
-    shape = ifcopenshell.geom.create_shape(settings, ifc.by_guid(guid))
-    tri = np.asarray(shape.geometry.verts).reshape(-1, 3)[
-        np.asarray(shape.geometry.faces).reshape(-1, 3)
-    ]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    rng = np.random.default_rng(1)
-    k = rng.choice(len(tri), 300_000, p=area / area.sum())
-    a, b = rng.random((2, len(k)))
-    flip = a + b > 1
-    a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
-    s = tri[k, 0] + a[:, None] * (tri[k, 1] - tri[k, 0]) + b[:, None] * (tri[k, 2] - tri[k, 0])
-    mc = ifc.by_type("IfcMapConversion")[0]
-    d, _ = cKDTree(s).query(pts_world - [mc.Eastings, mc.Northings, mc.OrthogonalHeight])
-    return float(np.sqrt(np.mean(d**2)))
 
 
 def _column_row(x, y, z0, h, r, axis, n):
@@ -79,7 +60,8 @@ def test_tilted_column_axis_through_its_points(tmp_path) -> None:
     z0 = float(pts[:, 2].min())
     row = _column_row(mid[0], mid[1], z0, float(np.ptp(pts[:, 2])), r, axis, n)
     ifc, rep = _export(tmp_path, "supports", pts, pd.DataFrame([row]))
-    assert _rms(ifc, rep.guids[1], pts) < 0.004  # 5 cm when placed through (x, y) at z_min
+    # 5 cm when placed through (x, y) at z_min
+    assert surface_rms(ifc, rep.guids[1], pts, 300_000) < 0.004
 
 
 def test_tapered_column_with_plinth_and_capital(tmp_path) -> None:
@@ -105,7 +87,8 @@ def test_tapered_column_with_plinth_and_capital(tmp_path) -> None:
     assert item.is_a("IfcRevolvedAreaSolid")
     ring = np.array([p.Coordinates for p in item.SweptArea.OuterCurve.Points])[1:-2]
     assert abs(ring[1:-1, 0].mean() - 0.175) < 1e-3  # agrees with the table's radius
-    assert _rms(ifc, rep.guids[1], shaft) < 0.004  # the plinth made a cone of its lowest slice
+    # the plinth made a cone of its lowest slice
+    assert surface_rms(ifc, rep.guids[1], shaft, 300_000) < 0.004
 
 
 def test_surface_radius_ignores_a_moulding() -> None:
@@ -143,7 +126,7 @@ def test_member_seen_on_two_faces(tmp_path) -> None:
            "width_m": 0.21, "height_m": 0.30, "rms_m": 0.002, "faces_seen": 2,
            "height_measured": True, "role": "rafter"}  # fmt: skip
     ifc, rep = _export(tmp_path, "beams", pts, pd.DataFrame([row]))
-    assert _rms(ifc, rep.guids[1], pts) < 0.004
+    assert surface_rms(ifc, rep.guids[1], pts, 300_000) < 0.004
 
 
 def test_section_roll_of_a_rolled_section() -> None:
@@ -172,4 +155,5 @@ def test_pier_seen_on_its_short_face(tmp_path) -> None:
            "box_width_m": 0.5, "box_height_m": 3.0, "fit_rms_m": 0.002,
            "circularity": 1.3}  # fmt: skip
     ifc, rep = _export(tmp_path, "supports", pts, pd.DataFrame([row]))
-    assert _rms(ifc, rep.guids[1], pts) < 0.004  # 15 cm when its length ran along the face
+    # 15 cm when its length ran along the face
+    assert surface_rms(ifc, rep.guids[1], pts, 300_000) < 0.004

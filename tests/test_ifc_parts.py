@@ -16,8 +16,8 @@ pytest.importorskip("ifcopenshell")
 
 import ifcopenshell
 import ifcopenshell.geom
-from scipy.spatial import cKDTree
 
+from ifc_surface import surface_distances
 from pyheracles.cloud import PointCloud
 from pyheracles.export.element_shapes import part_slabs
 from pyheracles.export.ifc import export_ifc
@@ -26,25 +26,6 @@ from pyheracles.labels import Segmentation
 from test_supports_primitives import leaning_column, table_row
 
 OFFSET = np.array([651000.0, 6862000.0, 30.0])
-
-
-def _surface_distance(ifc, guid: str, pts_world: np.ndarray) -> np.ndarray:
-    settings = ifcopenshell.geom.settings()
-    settings.set("use-world-coords", True)
-    shape = ifcopenshell.geom.create_shape(settings, ifc.by_guid(guid))
-    tri = np.asarray(shape.geometry.verts).reshape(-1, 3)[
-        np.asarray(shape.geometry.faces).reshape(-1, 3)
-    ]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    rng = np.random.default_rng(1)
-    k = rng.choice(len(tri), 600_000, p=area / area.sum())
-    a, b = rng.random((2, len(k)))
-    flip = a + b > 1
-    a[flip], b[flip] = 1 - a[flip], 1 - b[flip]
-    s = tri[k, 0] + a[:, None] * (tri[k, 1] - tri[k, 0]) + b[:, None] * (tri[k, 2] - tri[k, 0])
-    mc = ifc.by_type("IfcMapConversion")[0]
-    d, _ = cKDTree(s).query(pts_world - [mc.Eastings, mc.Northings, mc.OrthogonalHeight])
-    return d
 
 
 def test_leaning_column_with_plinth_and_capital_within_1cm(tmp_path) -> None:
@@ -68,7 +49,7 @@ def test_leaning_column_with_plinth_and_capital_within_1cm(tmp_path) -> None:
     if shaft.is_a("IfcExtrudedAreaSolid"):
         assert abs(shaft.SweptArea.Radius - row["radius_m"]) < 1e-3
         assert abs(shaft.Depth - length) < 1e-3
-    d = _surface_distance(ifc, rep.guids[1], pts)
+    d = surface_distances(ifc, rep.guids[1], pts, 600_000)
     rms = float(np.sqrt(np.mean(d**2)))
     per_part = [float(np.sqrt(np.mean(d[part == k] ** 2))) for k in range(3)]
     assert rms < 0.01, (rms, per_part)
