@@ -95,10 +95,10 @@ def refine_edges(
     the gaps between its points along the edge, up to the inner face's wider hole
     through a splayed reveal; an edge nothing measures keeps the grid's value.
     """
-    faces = np.unique(face_of)
-    found = np.array([face_edges(uz[face_of == f], u0, u1, z0, z1, c, at_foot, jambs)
-                      for f in faces]).reshape(-1, 4)  # fmt: skip
-    reach = np.array([2 * c + face_spacing(uz[face_of == f]) for f in faces])
+    per_face = [uz[face_of == f] for f in np.unique(face_of)]
+    found = np.array([face_edges(q, u0, u1, z0, z1, c, at_foot, jambs)
+                      for q in per_face]).reshape(-1, 4)  # fmt: skip
+    reach = np.array([2 * c + face_spacing(q) for q in per_face])
     grid = (u0, u1, z0, z1)
     out = []
     for k, (pick, inward) in enumerate(((np.max, 1), (np.min, -1), (np.max, 1), (np.min, -1))):
