@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from pyheracles.geometry.fitting import fit_cylinder, fit_oriented_box
+from pyheracles.geometry.fitting import FailedFit, fit_circle, fit_cylinder, fit_oriented_box
 from pyheracles.supports.core import Array, Scales
 
 
@@ -95,7 +95,7 @@ def fit_cone(
 def centre_line(pts: Array, slab_m: float = 0.25) -> tuple[Array, Array] | None:
     """(point, unit direction, z up) of the line through the centres of a column's slabs.
 
-    Each horizontal slab of ``slab_m`` gets an algebraic circle fit of its points (a
+    Each horizontal slab of ``slab_m`` gets an algebraic (Kåsa) circle fit of its points (a
     plinth, a base, a capital or an abacus seen all round is centred on the axis too);
     the line is a least-squares fit of x and y against z over the slabs, refitted
     without the slabs more than 3 robust sigma off it.  None with fewer than 4 slabs.
@@ -112,12 +112,11 @@ def centre_line(pts: Array, slab_m: float = 0.25) -> tuple[Array, Array] | None:
         q = pts[k == i]
         if len(q) < 30:
             continue
-        m = q[:, :2].mean(axis=0)
-        a = np.c_[2 * (q[:, :2] - m), np.ones(len(q))]
-        b = ((q[:, :2] - m) ** 2).sum(axis=1)
-        sol = np.linalg.lstsq(a, b, rcond=None)[0]
+        circle = fit_circle(q[:, :2], method="algebraic")
+        if isinstance(circle, FailedFit):  # collinear points: no centre in this slab
+            continue
         cz.append(float(q[:, 2].mean()))
-        cxy.append(m + sol[:2])
+        cxy.append(circle.center)
     if len(cz) < 4:
         return None
     cz_a, cxy_a = np.asarray(cz), np.asarray(cxy)
