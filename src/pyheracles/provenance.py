@@ -92,9 +92,7 @@ def write_run_json(
     return atomic_write_json(out / RUN_JSON, record)
 
 
-def add_to_run_json(
-    run_json: str | Path, key: str, messages: Sequence[str], **fields: Any
-) -> None:
+def add_to_run_json(run_json: str | Path, key: str, messages: Sequence[str], **fields: Any) -> None:
     """Append ``messages`` to the list ``key`` of an existing ``run.json`` (``warnings``,
     ``notes``), set ``fields``, and write it back atomically; a missing or unreadable
     record is left alone."""

@@ -163,7 +163,8 @@ def _training_cmd(
             extra = json.loads(Path(class_map).read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
             raise InputError(
-                f"unreadable class map: {exc}", path=class_map,
+                f"unreadable class map: {exc}",
+                path=class_map,
                 hint='give a JSON object of names, e.g. {"gate": "wall"}',
             ) from exc
         if not isinstance(extra, dict):

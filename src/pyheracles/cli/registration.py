@@ -167,7 +167,8 @@ def register(app: typer.Typer) -> None:
             False, "--auto", help="Automatic registration (see --method), no tie points."
         ),
         method: str = typer.Option(
-            None, "--method",
+            None,
+            "--method",
             help="Automatic method (implies --auto): auto (window panes, else markerless "
             "global registration), panes, or global.",
         ),
@@ -177,8 +178,10 @@ def register(app: typer.Typer) -> None:
         model: str = typer.Option("similarity", help="similarity (7 p) or rigid (6 p)."),
         estimator: str = typer.Option("danish", help="lsq, danish, l1, huber or tukey."),
         icp: bool = typer.Option(
-            False, "--icp", help="Refine with point-to-plane ICP (from the tie points, the "
-            "automatic solution or --init)."
+            False,
+            "--icp",
+            help="Refine with point-to-plane ICP (from the tie points, the "
+            "automatic solution or --init).",
         ),
         pane_thickness: float = typer.Option(0.02, help="Glass thickness for --auto, m."),
         crs: str = typer.Option(
@@ -299,9 +302,7 @@ def register(app: typer.Typer) -> None:
             with progress.stage("writing the registered cloud"):
                 write_cloud(moved, stage / f"{source.stem}_registered{suffix}")
             if res is not None:
-                rows = [
-                    "id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"
-                ]
+                rows = ["id,X_source,Y_source,Z_source,X_target,Y_target,Z_target,vx,vy,vz,outlier"]
                 for i in range(len(ids)):
                     v = res.residuals[i]
                     rows.append(

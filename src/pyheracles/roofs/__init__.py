@@ -480,8 +480,15 @@ def model_roofs(
                 cells = partition_footprint(fps[f], lines)
             else:
                 if cells:
-                    tries.insert(0, (cells, _label_cells(
-                        cells, xyz[on, :2], local, xyz[pts], abc, 2 * p.merge_distance_m)))
+                    tries.insert(
+                        0,
+                        (
+                            cells,
+                            _label_cells(
+                                cells, xyz[on, :2], local, xyz[pts], abc, 2 * p.merge_distance_m
+                            ),
+                        ),
+                    )
             if len(tries) > 2:
                 tries = [tries[0], tries[-1]]
             from pyheracles.export.validate_solid import validate_solid
@@ -499,8 +506,10 @@ def model_roofs(
                     n_faces = sum(s == "RoofSurface" for s in solid.semantics)
                     rms, _ = _roof_rms(solid, abc, xyz[on])
                     if k:
-                        warnings.append(f"{name}: LoD2.2 without the lines added between "
-                                        "planes sharing a cell (that solid was invalid)")
+                        warnings.append(
+                            f"{name}: LoD2.2 without the lines added between "
+                            "planes sharing a cell (that solid was invalid)"
+                        )
                     break
             if tries and lod22 is None:
                 warnings.append(f"{name}: LoD2.2 solid invalid, not written ({errors[0]})")
