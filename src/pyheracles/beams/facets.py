@@ -8,6 +8,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 __all__ = [
+    "disk_opening",
     "face_noise_thresholds",
     "half_max_edges",
     "on_own_plane",
@@ -253,6 +254,36 @@ def on_own_plane(p: NDArray[np.float64], n_sigma: float = 3.0) -> NDArray[np.boo
     return np.abs(h) <= max(n_sigma * sig, 0.006)
 
 
+def disk_opening(grid: NDArray[np.bool_], rad: int) -> NDArray[np.bool_]:
+    """Binary opening of ``grid`` by the disk ``dx**2 + dy**2 <= rad**2`` (cells).
+
+    The same cells as ``ndimage.binary_opening(grid, structure=disk)`` (cells
+    outside the grid are empty), from two exact Euclidean distance transforms
+    instead of one pass of the disk per cell: a cell survives the erosion when
+    its nearest empty cell is further than ``rad``, and the dilation of the
+    survivors takes every cell within ``rad`` of one of them.  The squared
+    distances are whole numbers, so comparing their square roots with ``rad``
+    is exact.  The time does not grow with the disk's area.
+
+    Parameters
+    ----------
+    grid
+        ``(H, W)`` occupied cells.
+    rad
+        Disk radius, cells (>= 0).
+
+    Returns
+    -------
+    ``(H, W)`` cells of the opened set.
+    """
+    pad = np.pad(np.asarray(grid, dtype=bool), rad + 1)
+    eroded = ndimage.distance_transform_edt(pad) > rad
+    if not eroded.any():
+        return np.zeros(np.shape(grid), dtype=bool)
+    dilated = ndimage.distance_transform_edt(~eroded) <= rad
+    return dilated[rad + 1 : -rad - 1, rad + 1 : -rad - 1]
+
+
 def wide_surface_points(
     xyz: NDArray[np.float64],
     labels: NDArray[np.int32],
@@ -312,9 +343,7 @@ def wide_surface_points(
         grid = np.zeros(shape, dtype=bool)
         grid[cells[:, 0], cells[:, 1]] = True
         rad = int(np.ceil(0.5 * max_width_m / cell)) + 1
-        yy, xx = np.mgrid[-rad : rad + 1, -rad : rad + 1]
-        disk = xx**2 + yy**2 <= rad**2
         grid = ndimage.binary_closing(grid, structure=np.ones((3, 3), bool))  # scan-line gaps
-        opened = ndimage.binary_opening(grid, structure=disk)
+        opened = disk_opening(grid, rad)
         out[idx[opened[cells[:, 0], cells[:, 1]]]] = True
     return out

@@ -232,8 +232,9 @@ def find_joints(
     # ends resting on nothing as fitted were fitted short: only those are lengthened,
     # up to the first beam their extension meets (in steps of end_slack_m)
     grown = []
+    boxes = _aabbs(list(beams), 0.0)  # each beam's box, once (not once per end and step)
     for b in beams:
-        ext = [_reach(b, sign, beams, p) for sign in (-1, 1)]
+        ext = [_reach(b, sign, beams, p, boxes) for sign in (-1, 1)]
         grown.append(
             replace(
                 b,
@@ -278,15 +279,24 @@ def _touch(a: BeamCuboid, b: BeamCuboid, contact: float) -> bool:
 
 
 def _reach(
-    b: BeamCuboid, sign: int, beams: list[BeamCuboid] | tuple[BeamCuboid, ...], p: JointParams
+    b: BeamCuboid,
+    sign: int,
+    beams: list[BeamCuboid] | tuple[BeamCuboid, ...],
+    p: JointParams,
+    boxes: tuple[Array, Array] | None = None,
 ) -> float:
-    """Length to add at the end of ``b`` at ``sign``: 0 when seated, else up to the first beam."""
-    if _seated(b, sign, beams, p.contact_m, 0.0):
+    """Length to add at the end of ``b`` at ``sign``: 0 when seated, else up to the first beam.
+
+    ``boxes``: the beams' axis-aligned boxes (``_aabbs(beams, 0)``), computed if not given.
+    """
+    if boxes is None:
+        boxes = _aabbs(list(beams), 0.0)
+    if _seated(b, sign, beams, p.contact_m, 0.0, boxes):
         return 0.0
     n_steps = max(1, int(np.ceil(p.end_reach_m / p.end_slack_m)))
     for k in range(1, n_steps + 1):
         ext = min(k * p.end_slack_m, p.end_reach_m)
-        if _seated(b, sign, beams, p.contact_m, ext):
+        if _seated(b, sign, beams, p.contact_m, ext, boxes):
             return ext
     return p.end_slack_m
 
@@ -297,9 +307,14 @@ def _seated(
     beams: list[BeamCuboid] | tuple[BeamCuboid, ...],
     contact: float,
     ext: float,
+    boxes: tuple[Array, Array] | None = None,
 ) -> bool:
     """Whether the end of ``b`` at ``sign`` (its last section-size piece, ``ext`` longer) touches
-    another beam."""
+    another beam.
+
+    ``boxes``: the beams' axis-aligned boxes (``_aabbs(beams, 0)``); the beams whose box
+    the piece's box (grown by ``contact``) misses are skipped in one vectorised test.
+    """
     piece_len = min(b.length, max(b.width, b.height)) + ext
     piece = replace(
         b,
@@ -307,11 +322,11 @@ def _seated(
         length=piece_len,
     )
     (lo,), (hi,) = _aabbs([piece], contact)
-    for o in beams:
+    box_lo, box_hi = _aabbs(list(beams), 0.0) if boxes is None else boxes
+    near = np.flatnonzero(~(np.any(box_hi < lo, axis=1) | np.any(box_lo > hi, axis=1)))
+    for k in near.tolist():
+        o = beams[k]
         if o is b:
-            continue
-        c = o.corners()
-        if np.any(c.max(axis=0) < lo) or np.any(c.min(axis=0) > hi):
             continue
         if _touch(piece, o, contact):
             return True

@@ -39,43 +39,92 @@ _HELP = "\n\n".join(
 )
 
 
-def plot_beams(xyz: np.ndarray, result: BeamResult, path: Path, *, max_points: int = 200_000):
+def _raster_view(
+    u: np.ndarray,
+    v: np.ndarray,
+    layers: list[tuple[np.ndarray, np.ndarray]],
+    origin: tuple[float, float],
+    cell: float,
+    shape: tuple[int, int],
+) -> np.ndarray:
+    """Points painted into an RGBA image of ``shape`` (rows: ``v`` upwards) cells.
+
+    Cell ``(0, 0)`` starts at ``origin``, cells are ``cell`` data units wide;
+    points outside are clipped to the border cells.  ``layers`` are
+    ``(index, rgba)`` pairs painted in turn (a later layer covers an earlier
+    one in a cell shared by both; ``rgba`` is ``(4,)`` or one row per point);
+    cells without points are transparent.
+    """
+    nv, nu = shape
+    iu = np.clip(((u - origin[0]) / cell).astype(np.int64), 0, nu - 1)
+    iv = np.clip(((v - origin[1]) / cell).astype(np.int64), 0, nv - 1)
+    flat = iv * nu + iu
+    img = np.zeros((nv * nu, 4), dtype=np.uint8)
+    for index, rgba in layers:
+        img[flat[index]] = np.round(255 * np.asarray(rgba)).astype(np.uint8)
+    return img.reshape(nv, nu, 4)
+
+
+def plot_beams(xyz: np.ndarray, result: BeamResult, path: Path, *, dpi: int = 110):
     """Plan and two elevations of the beams (coloured) and their cuboids (black edges).
 
-    Written atomically; matplotlib is imported here only.
+    Every point is drawn, painted into an image of one cell per pixel of each
+    view (beams over the grey remainder) after the layout is fixed, so a
+    point shows as one pixel, as a marker would, and the time grows with the
+    points only through one pass over them.  Written atomically; matplotlib
+    is imported here only.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
 
     from pyheracles.io.atomic import atomic_path
 
-    rng = np.random.default_rng(0)
-    pick = np.arange(len(xyz))
-    if len(pick) > max_points:
-        pick = np.sort(rng.choice(len(xyz), max_points, replace=False))
-    pts, lab = xyz[pick], result.labels[pick]
+    xyz = np.asarray(xyz, dtype=np.float64)
+    lab = np.asarray(result.labels)
     cmap = plt.get_cmap("tab20")
+    on_beam = np.flatnonzero(lab != 0)
+    # the grey remainder first, the beams over it
+    layers = [(np.flatnonzero(lab == 0), np.array([0.75, 0.75, 0.75, 1.0])),
+              (on_beam, cmap((lab[on_beam] - 1) % 20))]  # fmt: skip
     edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+    corners = [cub.corners() for cub in result.beams]
     views = (("plan (x, y)", 0, 1), ("elevation (x, z)", 0, 2), ("elevation (y, z)", 1, 2))
-    fig, axes = plt.subplots(1, 3, figsize=(18, 6.5))
+    fig, axes = plt.subplots(1, 3, figsize=(18, 6.5), dpi=dpi)
     for ax, (title, i, j) in zip(axes, views, strict=True):
-        rest = lab == 0
-        ax.scatter(pts[rest, i], pts[rest, j], s=0.2, c="0.75", linewidths=0)
-        ax.scatter(pts[~rest, i], pts[~rest, j], s=0.3, c=cmap((lab[~rest] - 1) % 20), linewidths=0)
+        segs = [[(c[a, i], c[a, j]), (c[b, i], c[b, j])] for c in corners for a, b in edges]
+        if segs:
+            ax.add_collection(LineCollection(segs, colors="k", linewidths=0.6))
+        if len(xyz):
+            lo, hi = xyz[:, [i, j]].min(axis=0), xyz[:, [i, j]].max(axis=0)
+            ax.update_datalim(np.array([lo, hi]))
         for k, cub in enumerate(result.beams):
-            c = cub.corners()
-            for a, b in edges:
-                ax.plot([c[a, i], c[b, i]], [c[a, j], c[b, j]], color="k", lw=0.6)
             ax.annotate(str(k + 1), (cub.centre[i], cub.centre[j]), fontsize=7, ha="center")
+        ax.autoscale_view()
         ax.set_aspect("equal")
         ax.set_title(title)
         ax.set_xlabel("metres (local frame)")
     fig.suptitle(f"{len(result.beams)} beams; grey: remainder")
     fig.tight_layout()
+    width_px, height_px = fig.get_size_inches() * fig.dpi
+    for ax, (_, i, j) in zip(axes, views, strict=True):
+        if not len(xyz):
+            continue
+        ax.apply_aspect()
+        pos = ax.get_position()
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        cell = max((x1 - x0) / (pos.width * width_px), (y1 - y0) / (pos.height * height_px))
+        shape = (max(int(np.ceil((y1 - y0) / cell)), 1), max(int(np.ceil((x1 - x0) / cell)), 1))
+        img = _raster_view(xyz[:, i], xyz[:, j], layers, (x0, y0), cell, shape)
+        extent = (x0, x0 + shape[1] * cell, y0, y0 + shape[0] * cell)
+        ax.set_autoscale_on(False)
+        ax.imshow(img, extent=extent, origin="lower", interpolation="nearest", zorder=0)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
 
