@@ -93,6 +93,28 @@ class ComplexParams:
         dormer's edges) are held to the object-wide limit only (its top plus
         ``attach_distance_m``).  Metres; ``None`` holds porous points to that
         limit too.
+    scatter_vote_neighbours
+        A smooth candidate point whose this many nearest candidates of the same
+        polygon (3D) are at least ``scatter_vote_share`` scattered, and which
+        stands more than ``scatter_rise_m`` above the other smooth points
+        beside it, counts as scattered (see
+        :func:`pyheracles.complex.clusters.vote_scattered`): the flat-looking
+        patches of a crown no longer chain it to the roof under it, and its
+        scattered points are held to the roof's top.  ``None`` turns the vote
+        off.
+    scatter_vote_share
+        Share of scattered neighbours that makes a smooth point scattered.
+    scatter_vote_keep
+        The vote is dropped for a polygon when fewer than this share of the
+        smooth points inside it would stay smooth (on sparse surveys the surface
+        variation flags roofs, and thin towers are mostly edges).
+    outside_above_top_m
+        Points of an object outside its polygon (in the buffer ring) may stand
+        at most this much above the top of its points inside the polygon (99th
+        percentile): eaves and facades stand lower, the crown of a tree beside
+        a wall or a small building higher (complex family, 0.1-0.4 points/m^2:
+        such crown points chained to walls at a clustering distance of 3-7 m).
+        Metres; ``None`` turns the test off.
     scatter_offset_m
         Scattered points join an object only within this XY distance of its
         polygon (inside counts as 0): roof edges and eaves, not the hedge or
@@ -133,6 +155,10 @@ class ComplexParams:
     scatter_offset_m: float | None = None
     scatter_above_top_m: float | None = 1.0
     scatter_rise_m: float | None = 0.5
+    scatter_vote_neighbours: int | None = 8
+    scatter_vote_share: float = 0.5
+    scatter_vote_keep: float = 0.8
+    outside_above_top_m: float | None = 1.0
     ground: str = "auto"
     raised_ground_m: float | None = 0.2
     layer_order: tuple[str, ...] | None = None
@@ -156,12 +182,21 @@ class ComplexParams:
             raise InputError(f"scatter_above_top_m must be >= 0, got {self.scatter_above_top_m}")
         if self.scatter_rise_m is not None and not self.scatter_rise_m >= 0:
             raise InputError(f"scatter_rise_m must be >= 0, got {self.scatter_rise_m}")
+        if self.outside_above_top_m is not None and not self.outside_above_top_m >= 0:
+            raise InputError(f"outside_above_top_m must be >= 0, got {self.outside_above_top_m}")
         if self.scatter_offset_m is not None and not self.scatter_offset_m >= 0:
             raise InputError(f"scatter_offset_m must be >= 0, got {self.scatter_offset_m}")
         if self.min_cluster_points is not None and self.min_cluster_points < 1:
             raise InputError(f"min_cluster_points must be >= 1, got {self.min_cluster_points}")
         if self.porous_share is not None and not 0.0 < self.porous_share <= 1.0:
             raise InputError(f"porous_share must be in (0, 1], got {self.porous_share}")
+        if self.scatter_vote_neighbours is not None and self.scatter_vote_neighbours < 1:
+            raise InputError(
+                f"scatter_vote_neighbours must be >= 1, got {self.scatter_vote_neighbours}"
+            )
+        for name in ("scatter_vote_share", "scatter_vote_keep"):
+            if not 0.0 < getattr(self, name) <= 1.0:
+                raise InputError(f"{name} must be in (0, 1], got {getattr(self, name)}")
         if not 0.0 <= self.keep_fraction <= 1.0:
             raise InputError(f"keep_fraction must be in [0, 1], got {self.keep_fraction}")
 
