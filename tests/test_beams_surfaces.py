@@ -144,6 +144,26 @@ def test_timber_stored_on_the_floor_is_not_a_member():
     assert not resting_loose(build_tree(floor), beams, contacts).any()
 
 
+def test_timber_stacked_on_stored_timber_is_not_a_member():
+    # roof seed 13: a piece laid across a stored timber, whose underside is
+    # 0.2 m above the floor with no surface beside it, was kept as a member
+    rng = np.random.default_rng(4)
+    floor = _grid((-2.0, 2.0), (-2.0, 2.0), 0.0, 0.02, rng)
+    below = _box([0.0, 0.0, 0.1], [0, 1, 0], 0.2, 0.2, 2.0)
+    above = _box([0.0, 0.3, 0.26], [1, 0, 0], 0.3, 0.12, 1.6)
+    beams = [below, above]
+    contacts = cuboid_contacts(beams, 0.05)
+    assert contacts[0] == {1}
+    tree = build_tree(floor)
+    assert resting_loose(tree, beams, contacts).tolist() == [True, True]
+    # a rafter standing on the pile makes it part of the frame again
+    rafter = _box([0.0, 1.36, 1.45], [0, 0.7, 0.7], 0.15, 0.2, 3.0)
+    beams = [below, above, rafter]
+    contacts = cuboid_contacts(beams, 0.05)
+    assert contacts[2]
+    assert not resting_loose(tree, beams, contacts).any()
+
+
 def test_wide_surface_points_keep_beam_bands_and_trusses():
     rng = np.random.default_rng(3)
     floor = _grid((-2.0, 2.0), (-2.0, 2.0), 0.0, 0.02, rng)

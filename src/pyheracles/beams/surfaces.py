@@ -229,16 +229,27 @@ def resting_loose(
     :func:`cuboid_contacts`); a group whose every beam lies on a surface is
     not part of the frame, whose rafters, posts and braces lie on none.  A
     lone beam with nothing around its underside (a single beam scanned on
-    its own) is kept.
+    its own) is kept.  Timber stacked on stored timber, or laid between two
+    pieces that hide the floor beside it, lies on the pile: a flat beam
+    touching a lying one with its underside no higher than that one's top
+    (within ``reach_m``) lies too, repeated through the pile.
     """
     n = len(beams)
     lying = np.zeros(n, dtype=bool)
+    flat = np.zeros(n, dtype=bool)
+    low = np.zeros(n)  # lowest and highest level of each cuboid, metres
+    high = np.zeros(n)
     for i, b in enumerate(beams):
+        half_z = 0.5 * (
+            abs(b.axis[2]) * b.length + abs(b.axes[2, 1]) * b.width + abs(b.axes[2, 2]) * b.height
+        )
+        low[i], high[i] = b.centre[2] - half_z, b.centre[2] + half_z
         # the underside: the cross-section direction pointing most downwards
         cands = [(b.axes[:, 1], b.width, b.height), (b.axes[:, 2], b.height, b.width)]
         d, extent, side_extent = max(cands, key=lambda c: abs(c[0][2]))
         if abs(d[2]) < 0.7 or abs(b.axis[2]) > 0.2:
             continue  # not lying: an inclined or vertical member rests on no floor
+        flat[i] = True
         down = -d * np.sign(d[2])
         side = np.cross(b.axis, down)
         bottom = b.centre + down * 0.5 * extent
@@ -260,6 +271,14 @@ def resting_loose(
             if occ >= occupancy:
                 lying[i] = True
                 break
+    # on the pile: a flat beam resting on (or beside) a lying one it touches
+    changed = True
+    while changed:
+        changed = False
+        for i in np.flatnonzero(flat & ~lying):
+            if any(lying[k] and low[i] <= high[k] + reach_m for k in contacts[i]):
+                lying[i] = True
+                changed = True
     out = np.zeros(n, dtype=bool)
     seen = np.zeros(n, dtype=bool)
     for i in range(n):
