@@ -16,6 +16,7 @@ from pyheracles.beams.cuboids import (
     fit_one_face_cuboid,
     merge_and_absorb,
 )
+from pyheracles.beams.deflection import BoxIndex
 from pyheracles.beams.facets import (
     face_noise_thresholds,
     planar_parts,
@@ -43,13 +44,19 @@ __all__ = [
 
 
 def assign_to_cuboids(
-    xyz: NDArray[np.float64], beams: list[BeamCuboid], tol: float
+    xyz: NDArray[np.float64],
+    beams: list[BeamCuboid],
+    tol: float,
+    index: BoxIndex | None = None,
 ) -> NDArray[np.int32]:
-    """Each point to the cuboid whose surface is nearest, if within ``tol``."""
+    """Each point to the cuboid whose surface is nearest, if within ``tol``.
+
+    ``index``: a :class:`~pyheracles.beams.deflection.BoxIndex` of ``xyz`` to reuse.
+    """
     best = np.full(len(xyz), np.inf)
     labels = np.zeros(len(xyz), dtype=np.int32)
     for i, b in enumerate(beams):
-        cand = candidates(xyz, b, tol)
+        cand = candidates(xyz, b, tol, index)
         if len(cand) == 0:
             continue
         d = np.abs(b.signed_distance(xyz[cand]))
@@ -59,14 +66,22 @@ def assign_to_cuboids(
     return labels
 
 
-def candidates(xyz: NDArray[np.float64], cub: BeamCuboid, margin: float) -> NDArray[np.int64]:
-    """Indices of the points in the cuboid's axis-aligned bounding box + margin.
+def candidates(
+    xyz: NDArray[np.float64], cub: BeamCuboid, margin: float, index: BoxIndex | None = None
+) -> NDArray[np.int64]:
+    """Sorted indices of the points in the cuboid's axis-aligned bounding box + margin.
 
-    A vectorised box test over all points is cheaper than a KD-tree ball query
-    for long beams (the ball around a 6 m beam holds most of a roof).
+    A box test is cheaper than a KD-tree ball query for long beams (the ball
+    around a 6 m beam holds most of a roof).  With ``index`` (a
+    :class:`~pyheracles.beams.deflection.BoxIndex` of ``xyz``) only the points in
+    the box's narrowest coordinate range are tested (the same indices; on a roof
+    of 1.5 M points and a hundred members the whole-cloud test took a quarter of
+    the step); without it every point is.
     """
     corners = cub.corners()
     lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
+    if index is not None:
+        return index.query(lo, hi)
     inside = np.all((xyz >= lo) & (xyz <= hi), axis=1)
     return np.flatnonzero(inside)
 
@@ -79,6 +94,7 @@ def extend_along_axis(
     max_gap: float,
     spacing: float,
     max_rounds: int = 8,
+    index: BoxIndex | None = None,
 ) -> BeamCuboid:
     """Lengthen a cuboid over the points that continue its faces past its ends.
 
@@ -95,10 +111,11 @@ def extend_along_axis(
     test is on the positions only: normals of the few points of a sparse far
     end are too noisy to say which face they lie on.  One round looks
     ``max_gap`` past each end; rounds are repeated (at most ``max_rounds``)
-    while an end moves by more than a slice.
+    while an end moves by more than a slice.  ``index``: a
+    :class:`~pyheracles.beams.deflection.BoxIndex` of ``xyz`` to reuse.
     """
     for _ in range(max_rounds):
-        longer = extend_once(xyz, free, cub, tol, max_gap, spacing)
+        longer = extend_once(xyz, free, cub, tol, max_gap, spacing, index)
         if longer.length - cub.length <= max(0.05, 5 * spacing):
             return longer
         cub = longer
@@ -112,10 +129,11 @@ def extend_once(
     tol: float,
     max_gap: float,
     spacing: float,
+    index: BoxIndex | None = None,
 ) -> BeamCuboid:
     """One round of :func:`extend_along_axis`: up to ``max_gap`` past each end."""
     longer = replace(cub, length=cub.length + 2 * max_gap)
-    cand = candidates(xyz, longer, tol)
+    cand = candidates(xyz, longer, tol, index)
     cand = cand[free[cand]]
     if len(cand) == 0:
         return cub
@@ -455,6 +473,7 @@ def segment_beams(
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
         claimed[f.index] = g
+    index = BoxIndex(arr)  # box queries of every cuboid, on the kept points
     cuboids = [
         extend_along_axis(
             arr,
@@ -466,6 +485,7 @@ def segment_beams(
             # a band seen on one face may be a strip of a surface (the floor
             # between stored timbers): one round, as far as a crossing member
             max_rounds=8 if c.faces_seen >= 2 else 1,
+            index=index,
         )
         for i, c in enumerate(cuboids)
     ]
@@ -476,7 +496,7 @@ def segment_beams(
         renumber = np.concatenate([[0], np.cumsum(~loose) * ~loose]).astype(np.int32)
         facet_beam = renumber[facet_beam]
         cuboids = [c for c, lo in zip(cuboids, loose, strict=True) if not lo]
-    labels = assign_to_cuboids(full, cuboids, tol)
+    labels = assign_to_cuboids(full, cuboids, tol, index if full is arr else None)
     timings["cuboids"] = time.perf_counter() - t3
     straight = np.zeros(len(arr), dtype=np.int32)
     for i, f in enumerate(facets):
