@@ -20,19 +20,35 @@ window (thesis ch. 3, Murtiyoso 2020):
    contradict the solution, while a single light of a mullioned window facing the
    whole window does not.  A runner-up explaining nearly as many openings is refused
    as ambiguous.
-5. **Tie points** - per matched opening a local in-plane fit of its outline and its
+5. **Recess ICP** - every hypothesis is also refined by point-to-plane ICP on the raw
+   recess points of its matched openings (:mod:`~pyheracles.registration.pane_icp`:
+   reveals and what each side sees through the glass, correspondences within one
+   opening pair only, Tukey kernel).  An opening agrees or disagrees by its raw points
+   where they decide, else by its outline; the refined solution replaces the outline
+   one when it verifies (at least ``min_openings`` openings agreeing by their raw
+   points, or by their outlines for openings of one size; not more contradicted than
+   ``max_contradiction``), its minimum is unique (displaced starts converge to it) and
+   the agreeing openings' reveals fix all three translations (a derived outline seen
+   in part can sit decimetres off in the glass plane; the raw reveals do not).
+6. **Tie points** - per matched opening a local in-plane fit of its outline and its
    pane depth gives four outline points (left, right, bottom, top of the mid-plane
    outline) in both frames, for the usual robust similarity and its report.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from pyheracles.registration.pane_icp import (
+    PaneICPParams,
+    minimum_spread,
+    recess_trees,
+    refine_on_recesses,
+)
 from pyheracles.registration.panes import Opening
 
 __all__ = [
@@ -96,6 +112,25 @@ class MatchParams:
         hypotheses turning the building over are refused.
     up
         Vertical direction in both clouds.
+    recess_icp
+        Parameters of the recess ICP (:class:`~pyheracles.registration.pane_icp.PaneICPParams`);
+        ``None`` turns it off (outline solutions only).
+    recess_depth_weight
+        Weight (in points) of each opening's pane-depth row in the recess ICP: small,
+        the detected pane depths may be off by a centimetre or two (sparse glass, a
+        reveal ending short), so they only hold the depth where no reveal of another
+        wall direction does.
+    min_translation_spread
+        Smallest eigenvalue of the summed normal moments of the openings verified by
+        their raw points (:attr:`~pyheracles.registration.pane_icp.PaneICPResult.normal_moment`,
+        a trace of one per opening) for the recess solution to be taken: the weakest
+        translation must be fixed by at least this share of one opening's reveal
+        points (0 for reveals of one wall direction without splays).
+    max_basin_m
+        The recess solution is taken only when the minima reached from displaced starts
+        lie within this RMS distance of it over the matched pane centres
+        (:attr:`~pyheracles.registration.pane_icp.PaneICPResult.basin_m`): a pose the
+        reveals do not fix, or one pulled aside by a splayed reveal, is not unique.
     """
 
     size_tolerance_m: float = 0.1
@@ -116,6 +151,10 @@ class MatchParams:
     max_tilt_deg: float = 10.0
     max_contradiction: float = 0.5
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    recess_icp: PaneICPParams | None = field(default_factory=PaneICPParams)
+    recess_depth_weight: float = 1.0
+    min_translation_spread: float = 0.1
+    max_basin_m: float = 0.005
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +180,15 @@ class OpeningMatch:
         Openings mapped onto a partner whose outline disagrees (wrong detections).
     n_mirrored
         Consistent arrangements refused because only a reflection maps them.
+    method
+        ``"outlines"`` (outline least squares) or ``"recess_icp"`` (refined on the raw
+        recess points, see :mod:`~pyheracles.registration.pane_icp`).
+    n_recess_verified
+        Matched openings verified by their raw recess points (recess solution).
+    recess_rms_m
+        Weighted point-to-plane RMS of the recess ICP's last step (``nan``: outlines).
+    recess_basin_m
+        Spread of the recess ICP's minima from displaced starts (``nan``: outlines).
     """
 
     T_target_source: Array
@@ -152,6 +200,10 @@ class OpeningMatch:
     runner_up: int
     n_contradicted: int = 0
     n_mirrored: int = 0
+    method: str = "outlines"
+    n_recess_verified: int = 0
+    recess_rms_m: float = float("nan")
+    recess_basin_m: float = float("nan")
 
 
 def rigid_from_openings(cs: Array, ns: Array, ct: Array, nt: Array, opposite: bool = True) -> Array:
@@ -436,6 +488,7 @@ def match_openings(
     if not cliques:
         return f"no {p.min_openings} openings in a consistent arrangement ({len(cand)} candidates)"
     results = []
+    trees = None
     tried: list[Array] = []
     n_contradicted = 0
     n_mirrored = 0
@@ -479,18 +532,36 @@ def match_openings(
         # window the other sees whole: not a contradiction, nor a tie)
         sizes_agree = _size_compatible(source, target, pairs, p)
         bad = int((np.isfinite(med) & ~good).sum() + (np.isinf(med) & sizes_agree).sum())
-        if bad > p.max_contradiction * good.sum():
-            n_contradicted += 1
-            continue
         # evidence: agreeing outlines of openings of one size; an agreeing outline of
         # another size (one light of a mullioned window against the whole window, an
         # outline seen in part) fixes the pose only in part and may slide along its
         # partner: it adds tie points but does not count towards ``min_openings``
         n_verified = int((good & sizes_agree).sum())
-        best_good = max(best_good, n_verified)
-        if n_verified < p.min_openings:
+        outline_ok = bad <= p.max_contradiction * good.sum() and n_verified >= p.min_openings
+        rec = None
+        if p.recess_icp is not None:
+            if trees is None:
+                trees = recess_trees(target)
+            rec = _recess_candidate(source, target, pairs, T, p, trees)
+        if rec is not None and rec[0] >= p.min_openings:
+            best_good = max(best_good, rec[0])
+            results.append((*rec[1:], len(cl)))
             continue
-        results.append((int(good.sum()), T, pairs[good], rms[good], local[good], len(cl), bad))
+        if bad > p.max_contradiction * good.sum():
+            n_contradicted += 1
+            continue
+        best_good = max(best_good, n_verified)
+        if not outline_ok:
+            continue
+        extras = {
+            "method": "outlines",
+            "n_recess_verified": 0,
+            "recess_rms_m": float("nan"),
+            "recess_basin_m": float("nan"),
+        }
+        results.append(
+            (int(good.sum()), T, pairs[good], rms[good], local[good], bad, extras, len(cl))
+        )
     if not results and best_good > 0:
         return (
             f"only {best_good} openings of one size whose outlines agree "
@@ -517,11 +588,91 @@ def match_openings(
         outline_rms=best[3],
         local=best[4],
         n_candidates=len(cand),
-        n_consistent=best[5],
+        n_consistent=best[7],
         runner_up=runner,
-        n_contradicted=best[6],
+        n_contradicted=best[5],
         n_mirrored=n_mirrored,
+        **best[6],
     )
+
+
+def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
+    """A hypothesis refined on the raw recess points, judged opening by opening.
+
+    Returns ``None`` when the refinement leaves the arrangement or does not verify;
+    else ``(n_verified, n_good, T, pairs, rms, local, bad, extras)``.  An opening's
+    verdict comes from its raw points where they decide, else from its outline under
+    the refined transform; the solution is refused when more openings contradict it
+    than ``max_contradiction`` x those that agree, or when the openings verified by
+    their raw points do not fix all three translations.
+    """
+    pi = p.recess_icp
+    assert pi is not None
+    if all(trees[j] is None or len(S[i].recess) == 0 for i, j in pairs):
+        return None  # no recess points kept: outlines only
+
+    fast = replace(pi, restart_m=0.0)  # restarts only for a solution otherwise taken
+
+    def refine(pr, T0):
+        dw = np.full(len(pr), p.recess_depth_weight)
+        return refine_on_recesses(
+            S, Tg, pr, T0, dw, fast, opposite_sides=p.opposite_sides, trees=trees
+        )
+
+    start = T
+    r = refine(pairs, start)
+    for _ in range(2):  # re-explain with the refined pose, refine again if pairs changed
+        new = _explained(S, Tg, r.T_target_source, p)
+        if len(new) < p.min_openings:
+            return None
+        if len(new) == len(pairs) and bool(np.all(new == pairs)):
+            break
+        pairs, start = new, r.T_target_source
+        r = refine(pairs, start)
+    else:
+        return None  # the arrangement does not settle
+    T = r.T_target_source
+    med, rms, local = _agreement(S, Tg, pairs, T, p)
+    sizes = _size_compatible(S, Tg, pairs, p)
+    o_good = med < p.fine_tolerance_m
+    o_bad = (np.isfinite(med) & ~o_good) | (np.isinf(med) & sizes)
+    v = r.verdict
+    good = (v == 1) | ((v == 0) & o_good)
+    bad = int(((v == -1) | ((v == 0) & o_bad)).sum())
+    if bad > p.max_contradiction * good.sum():
+        return None
+    raw = v == 1
+    moment = r.normal_moment[v == 1].sum(axis=0)  # one unit of trace per opening
+    if np.linalg.eigvalsh(moment)[0] < p.min_translation_spread:
+        return None  # the raw points leave a translation free: outlines only
+    # evidence: openings whose raw points agree and fix both in-plane directions (their
+    # detected sizes may differ: an outline seen in part measures short), and agreeing
+    # outlines of openings of one size
+    n_verified = int(((v == 1) | (good & sizes)).sum())
+    if n_verified < p.min_openings:
+        return None
+    basin = minimum_spread(
+        S,
+        Tg,
+        pairs,
+        start,
+        T,
+        np.full(len(pairs), p.recess_depth_weight),
+        pi,
+        opposite_sides=p.opposite_sides,
+        trees=trees,
+    )
+    if basin > p.max_basin_m:
+        return None  # several minima: the raw points do not decide the pose
+    loc = np.where((v == 1)[:, None, None], r.local, local)
+    res = np.where(v == 1, r.residual_rms_m, rms)
+    extras = {
+        "method": "recess_icp",
+        "n_recess_verified": int(raw.sum()),
+        "recess_rms_m": float(r.rms_m),
+        "recess_basin_m": basin,
+    }
+    return n_verified, int(good.sum()), T, pairs[good], res[good], loc[good], bad, extras
 
 
 def _same_pose(

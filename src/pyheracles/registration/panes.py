@@ -33,7 +33,7 @@ it) and the glass thickness is known.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -106,6 +106,10 @@ class PaneParams:
         openings.
     max_level_deg
         Largest correction of ``up`` accepted from the walls.
+    max_recess_keep
+        Recess points (reveals and what is seen through the glass, not the glass
+        itself) kept per opening for the restricted ICP of
+        :mod:`~pyheracles.registration.pane_icp` (regularly thinned beyond).
     """
 
     search_voxel_m: float = 0.08
@@ -135,6 +139,7 @@ class PaneParams:
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     level: bool = True
     max_level_deg: float = 5.0
+    max_recess_keep: int = 2500
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,6 +167,10 @@ class Opening:
         Glass points used for the pane depth (0: depth from the reveal ends).
     face
         Index of the wall face.
+    recess, recess_normal
+        ``(R, 3)`` points of the recess that are not glass (reveals from the face to the
+        glass, the other side's reveals seen through it) and their unit normals (sign
+        free): the raw surfaces of the restricted ICP (empty when not kept).
     """
 
     centre: Array
@@ -175,6 +184,8 @@ class Opening:
     depth_m: float
     n_glass: int
     face: int
+    recess: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    recess_normal: Array = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def voxel_centroids(xyz: Array, voxel_m: float) -> Array:
@@ -504,6 +515,9 @@ def _opening(
     flip = (ip @ h) * rel[:, 0] + (ip @ v) * rel[:, 1] < 0
     ip[flip] *= -1  # out of the opening
     centre = (d + side * mid) * n + cen2[0] * h + cen2[1] * v
+    keep = np.flatnonzero(~pane_like)
+    if len(keep) > p.max_recess_keep:  # regular thinning
+        keep = keep[np.linspace(0, len(keep) - 1, p.max_recess_keep).astype(int)]
     return Opening(
         centre=centre,
         normal=-e,
@@ -516,6 +530,8 @@ def _opening(
         depth_m=float(mid),
         n_glass=int(n_glass),
         face=face_id,
+        recess=pts[keep],
+        recess_normal=nrm[keep],
     )
 
 

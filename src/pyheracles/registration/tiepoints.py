@@ -12,7 +12,9 @@ with manual tie points).  Pipeline:
 2. **Matching** (:func:`~pyheracles.registration.pane_matching.match_openings`) -
    size-compatible pairs, rigid-invariant consistency, greedy cliques, point-to-line
    least squares on the mid-plane outlines with the pane depths, explicit refusal of
-   ambiguous (one-bay shifted) and mirrored solutions.
+   ambiguous (one-bay shifted) and mirrored solutions; every hypothesis also refined by
+   ICP restricted to the raw recess points of its openings
+   (:mod:`~pyheracles.registration.pane_icp`), taken when it verifies.
 3. **Tie points** - four outline points per matched opening in both frames (local
    fit of that opening's outline and depth), then the robust similarity (modified
    Danish method) and its report, as for manual tie points.
@@ -386,5 +388,9 @@ def find_tie_points(
             "contradicting_openings": m.n_contradicted,
             "mirrored_arrangements_refused": m.n_mirrored,
             "outline_rms_median_m": float(np.median(m.outline_rms)),
+            "method": m.method,
+            "n_recess_verified": m.n_recess_verified,
+            "recess_rms_m": m.recess_rms_m,
+            "recess_basin_m": m.recess_basin_m,
         },
     )
