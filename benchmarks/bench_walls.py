@@ -26,8 +26,12 @@ import json
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pyheracles.walls import WallResult
 
 
 def visible_faces(tw: dict, xyz: np.ndarray, inst: np.ndarray, part: np.ndarray,
@@ -85,8 +89,19 @@ def church(seed: int) -> dict:
     ``(u, z)`` (lights stacked above one another share ``u``), within 5 cm in width
     and height.
     """
-    from pyheracles.synthetic.families import simulate
     from pyheracles.walls import segment_walls
+
+    scene = church_scene(seed)
+    t = time.perf_counter()
+    r = segment_walls(scene["xyz"])
+    secs = time.perf_counter() - t
+    return {"seed": seed, **score_church(r, scene), "seconds": secs}
+
+
+def church_scene(seed: int) -> dict:
+    """One church draw (interior + exterior TLS) in the scene frame: ``xyz``, the
+    simulator's per-point ``instance`` and ``part``, ``objects`` and ``part_names``."""
+    from pyheracles.synthetic.families import simulate
 
     sim = simulate("church", seed, exterior_kind="tls")
     xyz, inst, part = [], [], []
@@ -95,19 +110,22 @@ def church(seed: int) -> dict:
         xyz.append(c.xyz @ T[:3, :3].T + T[:3, 3])
         inst.append(c.instance)
         part.append(c.part)
-    pts = np.vstack(xyz)
-    inst_a, part_a = np.concatenate(inst), np.concatenate(part)
-    t = time.perf_counter()
-    r = segment_walls(pts)
-    secs = time.perf_counter() - t
-    objs = sim.scene.objects
+    return {"xyz": np.vstack(xyz), "instance": np.concatenate(inst),
+            "part": np.concatenate(part), "objects": sim.scene.objects,
+            "part_names": sim.scene.part_names}  # fmt: skip
+
+
+def score_church(r: WallResult, scene: dict) -> dict:
+    """The targets of :func:`church` for the walls ``r`` of one draw ``scene``."""
+    pts, inst_a, part_a = scene["xyz"], scene["instance"], scene["part"]
+    objs = scene["objects"]
     truth = [o for o in objs if o["class"] == "wall"]
     ops = [o for o in objs if o["class"] in ("window", "door")]
     found, count_ok, size_ok, n_sizes, hidden = 0, 0, 0, 0, []
     errors = []
     for tw in truth:
         n, d = np.asarray(tw["outer_plane"]["normal"]), tw["outer_plane"]["d"]
-        seen = visible_faces(tw, pts, inst_a, part_a, sim.scene.part_names)
+        seen = visible_faces(tw, pts, inst_a, part_a, scene["part_names"])
         hidden += [f"{tw['name']}:{f}" for f, s in seen.items() if not s]
         p0, p1 = np.asarray(tw["p0"], dtype=float), np.asarray(tw["p1"], dtype=float)
         length = float(np.linalg.norm(p1 - p0))
@@ -158,14 +176,14 @@ def church(seed: int) -> dict:
     max_rms = max((f.rms_m for w in r.walls for f in w.faces), default=float("nan"))
     all_met = (found == len(truth) and max_rms <= 0.01 and count_ok == len(truth)
                and size_ok == n_sizes and n_sizes == len(ops))  # fmt: skip
-    return {"seed": seed, "all_targets": bool(all_met), "misses": (len(truth) - found)
+    return {"all_targets": bool(all_met), "misses": (len(truth) - found)
             + (len(truth) - count_ok) + (len(ops) - size_ok),
             "walls_true": len(truth), "walls_found_both_faces": found,
             "faces_unscanned": hidden,
             "walls_detected": len(r.walls), "max_face_rms_m": max(
                 (f.rms_m for w in r.walls for f in w.faces), default=None),
             "walls_opening_count_ok": count_ok, "openings_size_ok": size_ok,
-            "openings_true": n_sizes, "opening_errors": errors, "seconds": secs,
+            "openings_true": n_sizes, "opening_errors": errors,
             "notes": list(r.notes)}  # fmt: skip
 
 

@@ -122,3 +122,37 @@ def test_head_of_a_sharp_pointed_arch_is_its_apex() -> None:
     sill, head = head_sill(g[~hole], -w / 2, w / 2, 1.0, apex - 0.04, 0.05, 0.0125, False)
     assert head == pytest.approx(apex, abs=0.02)
     assert sill == pytest.approx(1.0, abs=0.01)
+
+
+def test_door_over_a_step_starts_at_the_floor() -> None:
+    """Church draw 4: the floor inside stands 0.18 m above the ground outside; the doors
+    came out 18 cm too tall, from the ground (the outer face's foot, hidden under the
+    door by a doorstep).  The opening
+    through the wall starts where both faces are open: at the floor."""
+    s = Scene()
+    frame = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, 1.0, 0]])
+    door = [(3.0, 0.0), (4.2, 0.0), (4.2, 2.2), (3.0, 2.2)]
+    s.add_prism(shapely.Polygon([(0, -0.18), (L, -0.18), (L, 4), (0, 4)], [door]), [0, 0, 0],
+                frame, T, instance=1, class_name="wall", part="face")  # fmt: skip
+    s.add_quad([[0, T, 0], [L, T, 0], [L, 4.5, 0], [0, 4.5, 0]], instance=8,
+               class_name="floor", part="face")  # fmt: skip
+    s.add_quad([[0, -6, -0.18], [L, -6, -0.18], [L, 0, -0.18], [0, 0, -0.18]], instance=7,
+               class_name="ground", part="face")  # fmt: skip
+    s.add_quad([[0, 4.5, 0], [L, 4.5, 0], [L, 4.5, 5], [0, 4.5, 5]], instance=9,
+               class_name="wall", part="face")  # fmt: skip
+    for q in (
+        [[3, -0.4, 0], [4.2, -0.4, 0], [4.2, 0, 0], [3, 0, 0]],  # a doorstep
+        [[3, -0.4, -0.18], [4.2, -0.4, -0.18], [4.2, -0.4, 0], [3, -0.4, 0]],
+    ):
+        s.add_quad(q, instance=6, class_name="step", part="face")  # fmt: skip
+    stations = [
+        TLSStation((4.0, 4.0, 1.6), step_deg=0.2, **QUIET),
+        TLSStation((3.8, -4.0, 1.6), step_deg=0.2, azimuth_deg=(20, 160), **QUIET),
+    ]
+    r = segment_walls(scan(s, stations, rng=2).xyz)
+    south = min(r.walls, key=lambda x: abs(x.normal[0]) + abs(x.d * x.normal[1]))
+    doors = [o for o in south.openings if o.kind == "door"]
+    assert len(doors) == 1, south.openings
+    assert doors[0].z_min == pytest.approx(0.0, abs=0.05)
+    assert doors[0].height_m == pytest.approx(2.2, abs=0.05)
+    assert doors[0].width_m == pytest.approx(1.2, abs=0.05)

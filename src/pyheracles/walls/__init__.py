@@ -29,7 +29,8 @@ Method
    they are large enough and the points through them lie in the wall (reveals,
    glass, doors' leaves) or beyond it, rather than in front (an occluder's shadow is
    not an opening).  Openings whose foot is within ``door_step_m`` of a face's foot
-   are doors, the others windows.  Their edges are refined from each face's points
+   are doors (from the highest face foot under them: the floor inside above a
+   step down outside), the others windows.  Their edges are refined from each face's points
    on its plane (stray points inside the opening and mixed pixels off the plane left
    out), and the opening through the wall is where every face is open.
 5. Joins: the ends of walls that meet are moved to the least-squares
