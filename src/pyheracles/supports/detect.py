@@ -29,7 +29,7 @@ from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.piers import in_wall_line, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
 from pyheracles.supports.rings import RING_RADIUS_M, detached_half_column, engaged_on_wall
-from pyheracles.supports.sections import section_islands
+from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 
 # ------------------------------------------------------------------------------ main
 #: The lower section (supports ending below the automatic one) lies this many times
@@ -345,6 +345,10 @@ def support_shapes(
     wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
     pieces = wall_pieces(xy, islands, sc)
     fragments = len(pieces)
+    regrouped, pieces = regroup_pier_pieces(xy, islands, pieces, params, sc.distance)
+    if regrouped is not islands:  # a new rectangle may itself be a piece of a wall
+        islands = regrouped
+        pieces |= wall_pieces(xy, islands, sc)
     for k, isl in enumerate(islands):
         if k in pieces:
             continue

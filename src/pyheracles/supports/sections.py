@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -141,6 +143,7 @@ def sparse_islands(
     islands: list[Island],
     params: SupportParams,
     distance_m: float,
+    pooled: tuple[str, ...] = ("noise",),
 ) -> list[Island]:
     """Supports whose section points are further apart than the clustering distance.
 
@@ -155,10 +158,12 @@ def sparse_islands(
     the pool; what is left (a support merged with a chair or a neighbour at the large
     gap) is grouped again at the next smaller one; the rest stays noise.  So every
     support is grouped at the local gap of its own scan lines, not one global spacing.
+    ``pooled``: the kinds of islands whose points go back into the pool (an island of
+    them that groups with nothing stays as it was; see :func:`regroup_pier_pieces`).
     """
     used = np.zeros(len(xy), dtype=bool)
     for i in islands:
-        if i.kind != "noise":
+        if i.kind not in pooled:
             used[i.index] = True
     found: list[Island] = []
     for gap in sparse_gaps(distance_m):  # a few scales, largest first
@@ -179,8 +184,39 @@ def sparse_islands(
     taken = np.zeros(len(xy), dtype=bool)
     for i in found:
         taken[i.index] = True
-    kept = [i for i in islands if i.kind != "noise" or not taken[i.index].any()]
+    kept = [i for i in islands if i.kind not in pooled or not taken[i.index].any()]
     return kept + found
+
+
+def regroup_pier_pieces(
+    xy: Array,
+    islands: list[Island],
+    pieces: set[int],
+    params: SupportParams,
+    distance_m: float,
+) -> tuple[list[Island], set[int]]:
+    """Pier islands grouped again with their neighbours into whole rectangle outlines.
+
+    The outline of a pier seen from one or two sides breaks at its corners, where the
+    scan lines graze its faces (draws 12 and 14 of the supports family): each piece is
+    an island of its own, a partial rectangle that is later joined, in every height
+    layer, to something beyond its outline -- the pier's own other faces -- like a jamb
+    to its wall.  The pier islands that are not pieces of walls (``pieces``, indices
+    into ``islands``) go back into the pool of left-over points with the noise and are
+    grouped again as in :func:`sparse_islands`: a group of them on one rectangle
+    outline is one pier; a pier island that groups with nothing stays as it was.  The
+    pieces of walls are held out (in line with the wall beside them, they would join
+    into wall-thick rectangles between windows).
+
+    Returns the islands and the indices of the wall pieces among them.
+    """
+    if not any(i.kind == "pier" for k, i in enumerate(islands) if k not in pieces):
+        return islands, pieces
+    held = [replace(i, kind="wall") if k in pieces else i for k, i in enumerate(islands)]
+    back = {id(held[k]): islands[k] for k in pieces}
+    out = sparse_islands(xy, np.zeros(0, np.intp), held, params, distance_m, ("noise", "pier"))
+    new_pieces = {k for k, i in enumerate(out) if id(i) in back}
+    return [back.get(id(i), i) for i in out], new_pieces
 
 
 def sparse_group(p: Array, index: NDArray[np.intp], params: SupportParams) -> list[Island]:
