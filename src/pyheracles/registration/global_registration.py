@@ -32,6 +32,7 @@ rotation and translation.  The pipeline (Rusu et al. 2009; Zhou, Park & Koltun
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -39,11 +40,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
+from threadpoolctl import ThreadpoolController
 
 from pyheracles import progress
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import EstimationError, InputError
-from pyheracles.geometry.neighbours import point_spacing
+from pyheracles.geometry.neighbours import build_tree, point_spacing
 from pyheracles.registration.consensus import (
     ConsensusParams,
     robust_rigid,
@@ -237,34 +239,38 @@ def _as_cloud(c: PointCloud | ArrayLike, what: str) -> PointCloud:
 
 
 def _two_nearest(
-    x: NDArray[np.float64], y: NDArray[np.float64], rows: int = 2048
+    x: NDArray[np.float64], y: NDArray[np.float64], rows: int = 256
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Distances and indices of the (up to) two nearest rows of ``y`` for every row of ``x``.
 
     Brute force by blocks of matrix products (float32, ``|x - y|^2 = |x|^2 + |y|^2 -
-    2 x.y``, ranked by ``x.y - |y|^2 / 2``): for a few thousand descriptors of 33
-    dimensions several times faster than a k-d tree, which degrades to a linear
-    scan in that many dimensions anyway.
+    2 x.y``, ranked by ``x.y - |y|^2 / 2``, the second term folded into the product as
+    one more column): for a few thousand descriptors of 33 dimensions several times
+    faster than a k-d tree, which degrades to a linear scan in that many dimensions
+    anyway.  Blocks of ``rows`` rows (a few MB of scores) stay in the processor's
+    cache between the product and the two passes that pick the best columns.
     """
     k = min(2, len(y))
+    xf = np.ascontiguousarray(x, dtype=np.float32)
     yf = np.ascontiguousarray(y, dtype=np.float32)
-    half_y2 = 0.5 * np.einsum("ij,ij->i", yf, yf)
-    d_out = np.empty((len(x), k))
-    j_out = np.empty((len(x), k), dtype=np.intp)
-    for s in range(0, len(x), rows):
-        xf = np.ascontiguousarray(x[s : s + rows], dtype=np.float32)
-        score = xf @ yf.T
-        score -= half_y2[None, :]
-        r = np.arange(len(xf))
+    # [x, 1] . [y, -|y|^2 / 2] = x.y - |y|^2 / 2
+    x_aug = np.hstack([xf, np.ones((len(xf), 1), dtype=np.float32)])
+    y_aug = np.vstack([yf.T, np.float32(-0.5) * np.einsum("ij,ij->i", yf, yf)[None, :]])
+    best = np.empty((len(xf), k))
+    j_out = np.empty((len(xf), k), dtype=np.intp)
+    buffer = np.empty((min(rows, len(xf)), len(yf)), dtype=np.float32)
+    for s in range(0, len(xf), rows):
+        score = buffer[: min(rows, len(xf) - s)]
+        np.matmul(x_aug[s : s + rows], y_aug, out=score)
+        r = np.arange(len(score))
         for c in range(k):
             j = score.argmax(axis=1)
             j_out[s : s + rows, c] = j
-            d_out[s : s + rows, c] = score[r, j]
+            best[s : s + rows, c] = score[r, j]
             score[r, j] = -np.inf
-        x2 = np.einsum("ij,ij->i", xf, xf).astype(np.float64)
-        d_out[s : s + rows] = x2[:, None] - 2.0 * d_out[s : s + rows]
-    np.sqrt(np.maximum(d_out, 0.0), out=d_out)
-    return d_out, j_out
+    x2 = np.einsum("ij,ij->i", xf, xf).astype(np.float64)
+    d2 = x2[:, None] - 2.0 * best
+    return np.sqrt(np.maximum(d2, 0.0)), j_out
 
 
 def match_descriptors(
@@ -355,6 +361,19 @@ def _same_pose(
     return bool(np.sqrt(np.mean(np.sum(move**2, axis=1))) <= max_m)
 
 
+def _nearest_within(
+    tree: cKDTree, pts: NDArray[np.float64], gate: float, rows: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """``tree.query(pts, k=1, distance_upper_bound=gate)``, asked in the order of ``rows``
+    (the points' rows in their cloud: neighbouring queries walk the same branches of the
+    tree, faster than a random order) and returned in the order of ``pts``."""
+    order = np.argsort(rows, kind="stable")
+    d = np.empty(len(pts))
+    nn = np.empty(len(pts), dtype=np.intp)
+    d[order], nn[order] = tree.query(pts[order], k=1, distance_upper_bound=gate, workers=-1)
+    return d, nn
+
+
 def _shares(
     src: PointCloud,
     tgt: PointCloud,
@@ -362,26 +381,30 @@ def _shares(
     gate: float,
     tree_t: cKDTree,
     tree_s: cKDTree,
+    normals_t: NDArray[np.float64],
+    k_normals: int,
     rng: np.random.Generator,
     sample: int = 30_000,
     n_normals: int = 5_000,
 ) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
     """Shares of source (target) points within ``gate`` of the other cloud after ``T``,
-    and the overlapping source points (target local frame) with their target normals."""
+    and the overlapping source points (target local frame) with their target normals
+    (``k_normals`` neighbours; taken from, and added to, the cache ``normals_t``)."""
     R, t = T[:3, :3], T[:3, 3]
     shift = R @ src.offset + t - tgt.offset  # source local -> target local
     i_s = rng.choice(len(src), size=min(sample, len(src)), replace=False)
     ps = src.xyz[i_s] @ R.T + shift
-    d, nn = tree_t.query(ps, k=1, distance_upper_bound=gate, workers=-1)
+    d, nn = _nearest_within(tree_t, ps, gate, i_s)
     ok = np.isfinite(d)
     i_t = rng.choice(len(tgt), size=min(sample, len(tgt)), replace=False)
     pt = (tgt.xyz[i_t] - shift) @ R  # target local -> source local
-    d2, _ = tree_s.query(pt, k=1, distance_upper_bound=gate, workers=-1)
+    d2, _ = _nearest_within(tree_s, pt, gate, i_t)
     pts = ps[ok][:n_normals]
-    nrm = (
-        estimate_normals(tgt.xyz, tree_t, nn[ok][:n_normals], 12) if len(pts) else np.zeros((0, 3))
-    )
-    return float(ok.mean()), float(np.isfinite(d2).mean()), pts, nrm
+    rows = nn[ok][:n_normals]
+    todo = np.unique(rows[np.isnan(normals_t[rows, 0])])
+    if len(todo):
+        normals_t[todo] = estimate_normals(tgt.xyz, tree_t, todo, k_normals)
+    return float(ok.mean()), float(np.isfinite(d2).mean()), pts, normals_t[rows]
 
 
 def global_registration(
@@ -419,14 +442,35 @@ def global_registration(
             f"global registration needs at least 10 points per cloud "
             f"(source {len(src)}, target {len(tgt)})"
         )
-    sp_s = point_spacing(src.xyz, rng=p.seed)
-    sp_t = point_spacing(tgt.xyz, rng=p.seed)
+    # every matrix product here is thin (N x 3, 6 x N, blocks of 256 descriptors): a
+    # second BLAS thread only busy-waits, and on a shared machine it stalls the
+    # product whenever the other core is taken
+    with _blas_controller().limit(limits=1, user_api="blas"):
+        return _register(src, tgt, p)
+
+
+@functools.cache
+def _blas_controller() -> ThreadpoolController:
+    """The BLAS libraries loaded (looked up once: the look-up takes milliseconds)."""
+    return ThreadpoolController()
+
+
+def _register(
+    src: PointCloud, tgt: PointCloud, p: GlobalRegistrationParams
+) -> GlobalRegistrationResult:
+    """:func:`global_registration` on validated clouds: the voxel sizes in turn."""
+    # one KD-tree per full cloud, shared by the spacing, the verification and every
+    # attempt; the target's normals estimated where first needed, then shared alike
+    tree_s, tree_t = build_tree(src.xyz), build_tree(tgt.xyz)
+    normals_t = np.full((len(tgt), 3), np.nan)
+    sp_s = point_spacing(src.xyz, tree_s, rng=p.seed)
+    sp_t = point_spacing(tgt.xyz, tree_t, rng=p.seed)
     scales = (1.0,) if p.voxel_m is not None else p.finer_retries
     res: GlobalRegistrationResult | None = None
     attempts: list[dict[str, Any]] = []
     for m in scales:
         pm = replace(p, target_points=round(p.target_points * m))
-        res = _attempt(src, tgt, pm, sp_s, sp_t)
+        res = _attempt(src, tgt, pm, (sp_s, sp_t), (tree_s, tree_t), normals_t)
         attempts.append({"voxel_m": res.voxel_m, "status": res.status, "reason": res.reason})
         if res.status != "no overlap":
             break  # accepted, or ambiguous (symmetric, degenerate: finer will not help)
@@ -435,9 +479,18 @@ def global_registration(
 
 
 def _attempt(
-    src: PointCloud, tgt: PointCloud, p: GlobalRegistrationParams, sp_s: float, sp_t: float
+    src: PointCloud,
+    tgt: PointCloud,
+    p: GlobalRegistrationParams,
+    spacings: tuple[float, float],
+    trees: tuple[cKDTree, cKDTree],
+    normals_t: NDArray[np.float64],
 ) -> GlobalRegistrationResult:
-    """One pass of :func:`global_registration` at the voxel size of ``p``."""
+    """One pass of :func:`global_registration` at the voxel size of ``p`` (``spacings``
+    and ``trees``: of the full source and target clouds; ``normals_t``: cache of the
+    target's normals, NaN where not estimated yet)."""
+    sp_s, sp_t = spacings
+    tree_s, tree_t = trees
     rng = np.random.default_rng(p.seed)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -519,8 +572,6 @@ def _attempt(
             if hyps[q].n_inliers >= chance
             and not _same_pose(T_hyp[q], T_hyp[order[0]], where, distinct_m)
         ]
-        tree_t = cKDTree(tgt.xyz, balanced_tree=False, compact_nodes=False)
-        tree_s = cKDTree(src.xyz, balanced_tree=False, compact_nodes=False)
         gate = p.gate_spacings * max(sp_t, sp_s)
         fine = ICPParams(
             max_correspondence_m=max(gate, voxel), overlap_distance_m=gate,
@@ -531,7 +582,7 @@ def _attempt(
 
         def refine(T0: NDArray[np.float64], prm: ICPParams) -> tuple[float, Any]:
             try:
-                r = icp(src, tgt, T0, prm, target_tree=tree_t)
+                r = icp(src, tgt, T0, prm, target_tree=tree_t, target_normals=normals_t)
             except (InputError, EstimationError):
                 return 0.0, None
             return r.overlap_fraction, r
@@ -570,7 +621,9 @@ def _attempt(
         if rival_q:
             best_score = quick_score[best_q]  # the margin compares the quick refinements
         T = final_icp.T_target_source if final_icp is not None else start
-        ov_s, ov_t, pts, nrm = _shares(src, tgt, T, gate, tree_t, tree_s, rng)
+        ov_s, ov_t, pts, nrm = _shares(
+            src, tgt, T, gate, tree_t, tree_s, normals_t, fine.normal_neighbours, rng
+        )
     timings["verification"] = time.perf_counter() - t0
     hyp_report = [
         {"inliers": h.n_inliers, "samples_supporting": h.n_samples_supporting,

@@ -23,6 +23,7 @@ from scipy.spatial.transform import Rotation
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import EstimationError, InputError
+from pyheracles.geometry.neighbours import symmetric_eigen3
 
 __all__ = ["ICPParams", "ICPResult", "estimate_normals", "icp"]
 
@@ -124,14 +125,22 @@ class ICPResult:
 def estimate_normals(
     xyz: NDArray[np.float64], tree: cKDTree, index: NDArray[np.intp], k: int
 ) -> NDArray[np.float64]:
-    """Unit normals (smallest PCA axis of the k nearest neighbours) at ``xyz[index]``."""
+    """Unit normals (smallest PCA axis of the k nearest neighbours) at ``xyz[index]``.
+
+    The six distinct covariance terms are summed directly and the 3x3 eigenproblems
+    solved in closed form (:func:`~pyheracles.geometry.neighbours.symmetric_eigen3`),
+    about twice as fast as a batched ``eigh`` of full matrices.
+    """
     k = int(min(k, len(xyz)))
     _, nb = tree.query(xyz[index], k=k, workers=-1)
-    pts = xyz[nb]  # (m, k, 3)
+    pts = xyz[nb.reshape(len(index), k)]  # (m, k, 3)
     c = pts - pts.mean(axis=1, keepdims=True)
-    cov = np.einsum("mki,mkj->mij", c, c)
-    _, vec = np.linalg.eigh(cov)
-    return vec[:, :, 0]
+    x, y, z = c[:, :, 0], c[:, :, 1], c[:, :, 2]
+    cov = np.empty((len(c), 6))
+    for col, (u, v) in enumerate(((x, x), (y, y), (z, z), (x, y), (x, z), (y, z))):
+        np.einsum("mk,mk->m", u, v, out=cov[:, col])
+    _, normals, _ = symmetric_eigen3(cov, directions=False)
+    return normals
 
 
 def _as_cloud(c: PointCloud | ArrayLike, what: str) -> PointCloud:
@@ -147,6 +156,7 @@ def icp(
     params: ICPParams | None = None,
     *,
     target_tree: cKDTree | None = None,
+    target_normals: NDArray[np.float64] | None = None,
 ) -> ICPResult:
     """Register ``source`` onto ``target`` by point-to-plane ICP.
 
@@ -161,6 +171,12 @@ def icp(
         :class:`ICPParams`.
     target_tree
         A cKDTree of ``target.xyz`` (local) to reuse.
+    target_normals
+        ``(N, 3)`` cache of the target's normals (``normal_neighbours`` neighbours),
+        rows of NaN where not yet estimated: the normals this call needs are taken
+        from it or estimated and written into it, so several calls on one target
+        (and :func:`estimate_normals` with the same tree and ``k``) estimate each
+        normal once.  ``None``: a private cache.
 
     Returns
     -------
@@ -200,7 +216,15 @@ def icp(
     d_overlap = p.overlap_distance_m or 3.0 * spacing
     n_levels = len(p.samples)
     dists = np.geomspace(d_start, d_end, n_levels) if n_levels > 1 else np.array([d_end])
-    normals = np.full((len(txyz), 3), np.nan)
+    if target_normals is None:
+        normals = np.full((len(txyz), 3), np.nan)
+    elif target_normals.shape != txyz.shape or target_normals.dtype != np.float64:
+        raise InputError(
+            f"target_normals must be a float64 array of shape {txyz.shape}, "
+            f"got {target_normals.dtype} {target_normals.shape}"
+        )
+    else:
+        normals = target_normals
     # incremental transform (in the target local frame) applied after the initial one
     R = np.eye(3)
     t = np.zeros(3)
@@ -211,7 +235,8 @@ def icp(
     sigma2 = 0.0
     extent = float(np.linalg.norm(np.ptp(txyz, axis=0))) or 1.0
     for level, (n_samp, dmax) in enumerate(zip(p.samples, dists, strict=True)):
-        idx = rng.choice(len(src), size=min(n_samp, len(src)), replace=False)
+        # in the source's order: neighbouring queries walk the same tree branches
+        idx = np.sort(rng.choice(len(src), size=min(n_samp, len(src)), replace=False))
         ps0 = src.xyz[idx] @ A0.T + shift
         converged = False
         for _ in range(p.iterations_per_level):
