@@ -22,12 +22,13 @@ RECESS_M = 0.15
 
 
 def _box_with_windows(
-    rng, spacing: float = 0.05, head_layer: int = 0
+    rng, spacing: float = 0.05, head_layer: int = 0, noise_m: float = 0.002, glass: int = 300
 ) -> tuple[np.ndarray, np.ndarray]:
     """Exterior of a 12 x 8 x 8 m box, three recessed glazed lights per long wall.
 
     ``head_layer`` points of a surface parallel to the face 6 cm deep in the top
-    fifth of each light (more than its 300 glass points: an intrados seen from below).
+    fifth of each light (more than its 300 glass points: an intrados seen from below);
+    ``glass`` points on each pane (photogrammetry: none); Gaussian noise ``noise_m``.
     Returns the points and the window centres on the glass (scene frame).
     """
     pts, centres = [], []
@@ -53,8 +54,8 @@ def _box_with_windows(
                         D, U = np.meshgrid(d, uu)
                         extra.append(np.column_stack([U.ravel(), D.ravel(), np.full(D.size, zl)]))
                     # sparse glass at the recess depth
-                    g = rng.uniform([uc - w / 2, SILL_Z], [uc + w / 2, SILL_Z + hgt], (300, 2))
-                    extra.append(np.column_stack([g[:, 0], np.full(300, RECESS_M), g[:, 1]]))
+                    g = rng.uniform([uc - w / 2, SILL_Z], [uc + w / 2, SILL_Z + hgt], (glass, 2))
+                    extra.append(np.column_stack([g[:, 0], np.full(glass, RECESS_M), g[:, 1]]))
                     if head_layer:
                         lo_, hi_ = [uc - 0.2 * w, SILL_Z + 0.8 * hgt], [uc + 0.2 * w, SILL_Z + hgt]
                         q = rng.uniform(lo_, hi_, (head_layer, 2))
@@ -68,7 +69,7 @@ def _box_with_windows(
                 xyz = np.column_stack([sgn * (half - local[:, 1]), local[:, 0], local[:, 2]])
             pts.append(xyz)
     xyz = np.vstack(pts)
-    return xyz + rng.normal(0, 0.002, xyz.shape), np.array(centres)
+    return xyz + rng.normal(0, noise_m, xyz.shape), np.array(centres)
 
 
 def _tilted(deg: float):
@@ -112,10 +113,14 @@ def test_openings_of_a_tilted_cloud_are_found() -> None:
     # on the mid-plane: half the 2 cm glass behind the glass centre
     per_light, per_opening = _errors(detect_openings(xyz, PaneParams()), centres)
     assert np.all(per_light < 0.015) and np.all(per_opening < 0.015)
-    # the faces of the tilted walls, taken as vertical planes, break into bands:
-    # openings of bands are spurious or misplaced
-    per_light, per_opening = _errors(detect_openings(xyz, PaneParams(level=False)), centres)
-    assert per_opening.max() > 0.05
+    # the faces of walls tilted by 4 deg, taken as vertical planes, break into bands:
+    # openings are lost (at 1.5 deg the face scatter measured round each hole now keeps
+    # them); levelled, all are found
+    xyz, centres, _ = _tilted(4.0)
+    per_light, _ = _errors(detect_openings(xyz, PaneParams()), centres)
+    assert np.all(per_light < 0.015)
+    ops = detect_openings(xyz, PaneParams(level=False))
+    assert len(ops) < len(centres) or _errors(ops, centres)[1].max() > 0.05
 
 
 def test_the_glass_is_the_layer_spreading_over_the_opening() -> None:
@@ -127,3 +132,27 @@ def test_the_glass_is_the_layer_spreading_over_the_opening() -> None:
     assert np.allclose([o.depth_m for o in ops], RECESS_M + 0.01, atol=0.01)
     per_light, _ = _errors(ops, centres)
     assert np.all(per_light < 0.03)
+
+
+def test_the_scatter_of_a_noisy_face_is_no_glass() -> None:
+    # church draw 7: a photogrammetric exterior (no glass points, the face scattering
+    # 1-2 cm) put face points behind the plane all round each hole; they passed for a
+    # glass layer 4 cm deep (true reveal 10 cm) and widened the lights by 0.25 m, and
+    # no arrangement of the openings verified
+    rng = np.random.default_rng(7)
+    xyz, centres = _box_with_windows(rng, spacing=0.03, noise_m=0.012, glass=0)
+    ops = detect_openings(xyz, PaneParams(level=False))  # the old detector found none
+    assert len(ops) == len(centres)
+    assert all(o.n_glass == 0 for o in ops)
+    # the depth where the reveals end (15 cm) plus half the 2 cm glass, the noise's
+    # tail beyond it
+    assert np.allclose([o.depth_m for o in ops], RECESS_M + 0.01, atol=0.03)
+    per_light, per_opening = _errors(ops, centres)
+    assert np.all(per_light < 0.04) and np.all(per_opening < 0.04)
+    # sizes from the outline's 1st-99th percentiles widen with the noise (2 x 2.3 sigma)
+    found = np.array([o.centre for o in ops])
+    light = np.argmin(np.linalg.norm(found[:, None] - centres[None], axis=2), axis=1)
+    excess = np.array(
+        [o.width - LIGHTS[j % len(LIGHTS)][1] for o, j in zip(ops, light, strict=True)]
+    )
+    assert np.all((excess > -0.01) & (excess < 0.2))

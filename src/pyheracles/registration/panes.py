@@ -42,7 +42,14 @@ from scipy.spatial import cKDTree
 
 from pyheracles.geometry.neighbours import estimate_normals
 
-__all__ = ["Opening", "PaneParams", "detect_openings", "estimate_up", "voxel_centroids"]
+__all__ = [
+    "Opening",
+    "PaneParams",
+    "detect_openings",
+    "estimate_up",
+    "recess_floor",
+    "voxel_centroids",
+]
 
 Array = NDArray[np.float64]
 
@@ -110,6 +117,12 @@ class PaneParams:
         Recess points (reveals and what is seen through the glass, not the glass
         itself) kept per opening for the restricted ICP of
         :mod:`~pyheracles.registration.pane_icp` (regularly thinned beyond).
+    min_recess_depth_m, face_noise_factor
+        The recess starts ``face_noise_factor`` robust standard deviations of the
+        face's own scatter (measured on the face ring around the opening) behind the
+        face plane, and at least ``min_recess_depth_m`` behind it: a photogrammetric
+        face scatters 1-2 cm, and its points behind the plane passed for glass
+        (a depth of 4 cm for a 10 cm reveal, widths 0.25 m too wide).
     """
 
     search_voxel_m: float = 0.08
@@ -140,6 +153,8 @@ class PaneParams:
     level: bool = True
     max_level_deg: float = 5.0
     max_recess_keep: int = 2500
+    min_recess_depth_m: float = 0.015
+    face_noise_factor: float = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -324,6 +339,29 @@ def _holes(uv: Array, cell: float, p: PaneParams) -> tuple[NDArray, Array, int]:
     return lab, lo, n
 
 
+def recess_floor(face_depth: Array, p: PaneParams) -> float:
+    """Depth behind a face plane where its recess starts, from the face's own scatter.
+
+    Parameters
+    ----------
+    face_depth
+        Signed distances (m) of the face points around an opening to the face plane.
+    p
+        :class:`PaneParams` (``min_recess_depth_m``, ``face_noise_factor``).
+
+    Returns
+    -------
+    float
+        ``|median| + face_noise_factor x 1.4826 x MAD`` of ``face_depth``, at least
+        ``min_recess_depth_m`` (also with fewer than 20 face points).
+    """
+    if len(face_depth) < 20:
+        return p.min_recess_depth_m
+    med = float(np.median(face_depth))
+    sigma = 1.4826 * float(np.median(np.abs(face_depth - med)))
+    return max(p.min_recess_depth_m, abs(med) + p.face_noise_factor * sigma)
+
+
 def _sector_coverage(uv: Array, centre: Array, n_sectors: int = 16) -> float:
     if len(uv) == 0:
         return 0.0
@@ -365,7 +403,9 @@ def _pane_depth(
     Several layers parallel to the face may hold points (the glass, but also a
     pointed head's intrados or a mullion seen edge-on from below); the glass is the
     one that spreads over the opening, so with ``cells`` (the opening's raster cell
-    of every point, -1 outside) the layer covering most cells is taken.
+    of every point, -1 outside the hole) the layer covering most cells is taken, and
+    a layer lying mostly outside the hole (the scatter of a noisy face around it) is
+    no glass.
     """
     g = depth[pane_like]
     gc = cells[pane_like] if cells is not None else np.arange(len(g))
@@ -381,6 +421,8 @@ def _pane_depth(
             if len(near) < min_glass or len(near) <= 0.3 * len(g):
                 continue
             covered = gc[sel]
+            if (covered >= 0).mean() < 0.5:
+                continue  # a layer over the face ring, not the hole: the face's own scatter
             score = (len(np.unique(covered[covered >= 0])), len(near))
             if best is None or score > best[:2]:
                 best = (*score, near)
@@ -420,6 +462,7 @@ def _opening(
     if max(u1 - u0, v1 - v0) > p.max_side_m:
         return None
     grow = ndimage.binary_dilation(mask, iterations=2)
+    near_edge = ndimage.binary_dilation(mask, iterations=1)
     cu, cv = 0.5 * (u0 + u1), 0.5 * (v0 + v1)
     c3 = d * n + cu * h + cv * v
     r = 0.5 * np.hypot(u1 - u0, v1 - v0) + 3 * cell + p.max_recess_m
@@ -434,7 +477,13 @@ def _opening(
     ok = (gi >= 0) & (gi < mask.shape[0]) & (gj >= 0) & (gj < mask.shape[1])
     inside = np.zeros(len(q), bool)
     inside[ok] = grow[gi[ok], gj[ok]]
-    band = inside & (np.abs(dep) > 0.015) & (np.abs(dep) < p.max_recess_m)
+    # the face's own scatter sets where the recess starts: a noisy face (photogrammetry,
+    # a far TLS station) puts points centimetres behind its plane all round the hole,
+    # and they would pass for glass or reveal
+    ring = np.zeros(len(q), bool)
+    ring[ok] = grow[gi[ok], gj[ok]] & ~near_edge[gi[ok], gj[ok]]
+    floor = recess_floor(dep[ring & (np.abs(dep) < p.face_band_m)], p)
+    band = inside & (np.abs(dep) > floor) & (np.abs(dep) < p.max_recess_m)
     # the recess is on the side holding more points inside the opening's prism
     side = 1.0 if (dep[band] > 0).sum() >= (dep[band] < 0).sum() else -1.0
     rec = band & (side * dep > 0)
@@ -454,7 +503,7 @@ def _opening(
     cj = np.floor((pts @ v - lo[1]) / cell).astype(int)
     okc = (ci >= 0) & (ci < mask.shape[0]) & (cj >= 0) & (cj < mask.shape[1])
     cells = np.where(okc, ci * mask.shape[1] + cj, -1)
-    cells[okc] = np.where(grow[ci[okc], cj[okc]], cells[okc], -1)
+    cells[okc] = np.where(mask[ci[okc], cj[okc]], cells[okc], -1)  # the hole's own cells
     depth_g, n_glass = _pane_depth(
         dd, pane_like, reveal_like, p.pane_thickness_m, cells, p.min_glass_points
     )
