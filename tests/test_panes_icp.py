@@ -155,3 +155,51 @@ def test_depth_rows_are_robust() -> None:
     pairs = np.array([[k, k] for k in range(len(S))])
     r = refine_on_recesses(S, Tg, pairs, T_TRUE, np.full(len(pairs), 30.0))
     assert _pose_error(r.T_target_source, S) < 0.002
+
+
+def _sparse_view(o: Opening, rng, n_outline: int, scatter_m: float, n_recess: int) -> Opening:
+    """``o`` seen sparsely from far below: a few outline points scattered in the glass
+    plane and too few raw recess points for a verdict of their own."""
+    k = rng.choice(len(o.outline), n_outline, replace=False)
+    jitter = np.outer(rng.normal(0, scatter_m, n_outline), o.h)
+    jitter += np.outer(rng.normal(0, scatter_m, n_outline), o.v)
+    r = rng.choice(len(o.recess), n_recess, replace=False)
+    return replace(
+        o,
+        outline=o.outline[k] + jitter,
+        outline_normal=o.outline_normal[k],
+        recess=o.recess[r],
+        recess_normal=o.recess_normal[r],
+    )
+
+
+def test_sparse_outlines_do_not_contradict_a_pose_fixed_by_reveals() -> None:
+    """Church draw 4: exterior openings 7-14 m up seen by a few scattered points
+    (outlines 5 cm about the true ones, too few raw points for a verdict) counted as
+    contradictions of the true pose, which the other openings' reveals fix: refused."""
+    rng = np.random.default_rng(4)
+    S, Tg = _church(rng, [0.0] * 7)
+    for k in (0, 2, 4):
+        Tg[k] = _sparse_view(Tg[k], rng, n_outline=50, scatter_m=0.05, n_recess=20)
+    m = match_openings(S, Tg, MatchParams())
+    assert isinstance(m, OpeningMatch)
+    assert m.method == "recess_icp"
+    assert _pose_error(m.T_target_source, S) < 0.003
+    # the strict test alone (no coarse comparison) refuses it
+    assert isinstance(match_openings(S, Tg, MatchParams(coarse_gate_m=0.0)), str)
+
+
+@pytest.mark.parametrize("seed", [1, 4])
+def test_a_turn_onto_windows_of_nearly_one_size_is_refused(seed: int) -> None:
+    """Four sparse exterior outlines (3 cm scatter): the true pose is not verified, and
+    a 180 deg turn mapping the long walls onto each other (windows 5-15 cm apart in
+    size) was returned 11-12 m off, its outlines compared on the 30-50 % of their
+    points that happen to lie near the partner's."""
+    rng = np.random.default_rng(seed)
+    S, Tg = _church(rng, [0.0] * 7)
+    for k in (0, 2, 4, 6):
+        Tg[k] = _sparse_view(Tg[k], rng, n_outline=50, scatter_m=0.03, n_recess=20)
+    m = match_openings(S, Tg, MatchParams())
+    assert isinstance(m, str) or _pose_error(m.T_target_source, S) < 0.003
+    loose = match_openings(S, Tg, MatchParams(min_outline_share=0.3))
+    assert isinstance(loose, OpeningMatch) and _pose_error(loose.T_target_source, S) > 1.0
