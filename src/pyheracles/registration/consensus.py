@@ -16,8 +16,8 @@ estimate survive that:
    consistent with both.  With 97 % outliers a uniform triplet is all-inlier
    once in 37 000 draws; a graph triangle around an inlier seed nearly always
    is.  Samples are drawn and scored in vectorised batches (batched Kabsch by
-   SVD, inlier counts on all correspondences), with early stop once the best
-   consensus has been found again several times.
+   SVD, inlier counts on all correspondences by a compiled kernel), with early
+   stop once the best consensus has been found again several times.
 
 Every distinct hypothesis is then re-estimated on its consensus set (least
 squares, a few local-optimisation rounds as in LO-RANSAC) and returned, best
@@ -248,11 +248,15 @@ def robust_rigid(
     if n < 3:
         stats["null_clique"] = 1.0
         return [], stats
-    C, dmin = consistency_graph(A, B, tol)
+    from pyheracles.registration.fpfh_kernels import consistency_kernel, inlier_counts_kernel
+
+    # the graph of consistency_graph (and its edges long enough to sample) in one pass
+    C = np.empty((n, n), dtype=bool)
+    usable = np.empty((n, n), dtype=bool)
+    consistency_kernel(A, B, float(tol), float(min_edge), C, usable)
     density = float(C.sum()) / (n * (n - 1))
     stats["density"] = density
     stats["null_clique"] = null_clique_size(n, density)
-    usable = C & (dmin >= min_edge)
     deg = usable.sum(axis=1).astype(np.float64)
     stats["max_degree"] = float(deg.max())
     if deg.max() < 2:
@@ -279,9 +283,7 @@ def robust_rigid(
             continue
         tri = np.stack([i, j, k], axis=1)
         R, t = kabsch(A[tri], B[tri])
-        res = np.matmul(A[None, :, :], np.swapaxes(R, 1, 2))
-        res += t[:, None, :] - B[None, :, :]
-        counts = (np.einsum("bni,bni->bn", res, res) < eps * eps).sum(axis=1)
+        counts = inlier_counts_kernel(A, B, R, t, eps * eps)  # |R a + t - b| < eps
         top = int(counts.max())
         if top > best:
             best = top

@@ -1,4 +1,7 @@
-"""Compiled (numba) kernels of the sign-invariant FPFH descriptor.
+"""Compiled (numba) kernels of the sign-invariant FPFH descriptor (and of the
+consensus of its matches: :func:`consistency_kernel`, :func:`inlier_counts_kernel`,
+one pass each over what numpy builds as several ``(n, n)`` or ``(batch, n, 3)``
+temporaries).
 
 The numpy version of :func:`pyheracles.registration.features.fpfh_descriptors`
 materialises about ten ``(pairs, 3)`` temporaries (400 000 pairs for 5 000
@@ -191,3 +194,46 @@ def radius_knn_kernel(
                         nb[i, w] = cand[q]
                         dist[i, w] = math.sqrt(d2[q])
                         w += 1
+
+
+@njit(cache=True, parallel=True)
+def consistency_kernel(a, b, tolerance, min_edge, consistent, usable):  # pragma: no cover
+    """Pairwise length consistency of correspondences ``(a_i, b_i)``.
+
+    ``consistent[i, j]``: ``| |a_i - a_j| - |b_i - b_j| | <= tolerance`` (diagonal
+    False); ``usable[i, j]``: consistent and both lengths at least ``min_edge``.
+    """
+    n = len(a)
+    for i in prange(n):
+        for j in range(n):
+            ex = a[i, 0] - a[j, 0]
+            ey = a[i, 1] - a[j, 1]
+            ez = a[i, 2] - a[j, 2]
+            da = math.sqrt(ex * ex + ey * ey + ez * ez)
+            ex = b[i, 0] - b[j, 0]
+            ey = b[i, 1] - b[j, 1]
+            ez = b[i, 2] - b[j, 2]
+            db = math.sqrt(ex * ex + ey * ey + ez * ez)
+            ok = abs(da - db) <= tolerance and i != j
+            consistent[i, j] = ok
+            usable[i, j] = ok and min(da, db) >= min_edge
+
+
+@njit(cache=True, parallel=True)
+def inlier_counts_kernel(a, b, R, t, eps2):  # pragma: no cover - compiled
+    """Number of correspondences with ``|R_s a_i + t_s - b_i|^2 < eps2`` for every
+    motion ``s`` of the batch ``R`` ``(m, 3, 3)``, ``t`` ``(m, 3)``."""
+    m = len(R)
+    n = len(a)
+    counts = np.zeros(m, dtype=np.int64)
+    for s in prange(m):
+        c = 0
+        for i in range(n):
+            a0, a1, a2 = a[i, 0], a[i, 1], a[i, 2]
+            r0 = a0 * R[s, 0, 0] + a1 * R[s, 0, 1] + a2 * R[s, 0, 2] + (t[s, 0] - b[i, 0])
+            r1 = a0 * R[s, 1, 0] + a1 * R[s, 1, 1] + a2 * R[s, 1, 2] + (t[s, 1] - b[i, 1])
+            r2 = a0 * R[s, 2, 0] + a1 * R[s, 2, 1] + a2 * R[s, 2, 2] + (t[s, 2] - b[i, 2])
+            if r0 * r0 + r1 * r1 + r2 * r2 < eps2:
+                c += 1
+        counts[s] = c
+    return counts
