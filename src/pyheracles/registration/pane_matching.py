@@ -98,11 +98,10 @@ class MatchParams:
     min_outline_share
         Two outlines are compared only when at least this share of one of them (the one
         lying on the other: a partial outline on a whole one) lies within twice the
-        finest fine gate of the other.  Compared on fewer points, windows of nearly one
-        size agree under a wrong pose: a 180 deg turn mapping the long walls onto each
-        other leaves 30-50 % of each outline near its partner's, and those points alone
-        fitted to 1 mm (a synthetic church with sparse exterior outlines was returned
-        12 m off at 0.3).
+        finest fine gate of the other.  True poses give 0.3-0.6 where both outlines are
+        partial (church draw 20); so do wrong poses onto windows of nearly one size
+        (a synthetic 180 deg turn with sparse, scattered exterior outlines: see the
+        closing note of issue 14), so the share alone does not tell them apart.
     coarse_gate_m
         For a recess ICP solution (its pose verified by raw reveal points), outlines that
         cannot be compared within twice the finest fine gate (less than
@@ -162,7 +161,7 @@ class MatchParams:
     min_openings: int = 3
     ambiguity_ratio: float = 0.8
     max_outline_points: int = 400
-    min_outline_share: float = 0.6
+    min_outline_share: float = 0.3
     coarse_gate_m: float = 0.1
     min_outline_spread: float = 0.05
     depth_weight: float = 30.0
