@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -292,8 +293,12 @@ def match_descriptors(
     -------
     source_index, target_index, n_mutual
     """
-    ds, js = _two_nearest(fs, ft)
-    dt, jt = _two_nearest(ft, fs)
+    # both directions at once (numpy releases the interpreter lock in the products and
+    # the passes over them): one per core
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        backward = pool.submit(_two_nearest, ft, fs)
+        ds, js = _two_nearest(fs, ft)
+        dt, jt = backward.result()
 
     def lowe(d: NDArray[np.float64]) -> NDArray[np.float64]:
         if d.shape[1] < 2:
