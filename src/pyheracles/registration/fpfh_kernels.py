@@ -33,10 +33,18 @@ def spfh_kernel(xyz, normals, nb, dist, bins):  # pragma: no cover - compiled
 
     ``nb``/``dist``: ``(n, k)`` neighbour indices and distances (``index >= n`` or
     ``dist`` not finite: no neighbour; distance 0: the point itself, skipped).
+
+    The third angle ``theta = atan2(y, x)`` has ``x = u . t >= 0`` (``t`` is put on
+    ``u``'s side), so it lies in ``[-pi/2, pi/2]`` and its bin is the number of bin
+    edges ``theta_q`` with ``y >= x tan(theta_q)``: comparisons instead of an arc
+    tangent per pair, the same bins.
     """
     n, k = nb.shape
     out = np.zeros((n, 3 * bins))
     counts = np.zeros(n)
+    tan_edge = np.empty(bins - 1)
+    for q in range(1, bins):
+        tan_edge[q - 1] = math.tan(-0.5 * math.pi + q * math.pi / bins)
     for i in prange(n):
         ux0, ux1, ux2 = normals[i, 0], normals[i, 1], normals[i, 2]
         c = 0.0
@@ -45,30 +53,41 @@ def spfh_kernel(xyz, normals, nb, dist, bins):  # pragma: no cover - compiled
             dd = dist[i, q]
             if j >= n or not (dd > 1e-12) or not math.isfinite(dd):
                 continue
-            d0 = (xyz[j, 0] - xyz[i, 0]) / dd
-            d1 = (xyz[j, 1] - xyz[i, 1]) / dd
-            d2 = (xyz[j, 2] - xyz[i, 2]) / dd
+            inv = 1.0 / dd
+            d0 = (xyz[j, 0] - xyz[i, 0]) * inv
+            d1 = (xyz[j, 1] - xyz[i, 1]) * inv
+            d2 = (xyz[j, 2] - xyz[i, 2]) * inv
             u0, u1, u2 = ux0, ux1, ux2
-            if u0 * d0 + u1 * d1 + u2 * d2 < 0:
+            phi = u0 * d0 + u1 * d1 + u2 * d2
+            if phi < 0:
                 u0, u1, u2 = -u0, -u1, -u2
+                phi = -phi
             t0, t1, t2 = normals[j, 0], normals[j, 1], normals[j, 2]
-            if t0 * u0 + t1 * u1 + t2 * u2 < 0:
+            x = t0 * u0 + t1 * u1 + t2 * u2
+            if x < 0:
                 t0, t1, t2 = -t0, -t1, -t2
+                x = -x
             v0 = u1 * d2 - u2 * d1
             v1 = u2 * d0 - u0 * d2
             v2 = u0 * d1 - u1 * d0
             vn = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
             if vn > 1e-12:
-                v0, v1, v2 = v0 / vn, v1 / vn, v2 / vn
+                iv = 1.0 / vn
+                v0, v1, v2 = v0 * iv, v1 * iv, v2 * iv
             w0 = u1 * v2 - u2 * v1
             w1 = u2 * v0 - u0 * v2
             w2 = u0 * v1 - u1 * v0
             alpha = v0 * t0 + v1 * t1 + v2 * t2
-            phi = u0 * d0 + u1 * d1 + u2 * d2
-            theta = math.atan2(w0 * t0 + w1 * t1 + w2 * t2, u0 * t0 + u1 * t1 + u2 * t2)
+            y = w0 * t0 + w1 * t1 + w2 * t2
             b1 = min(max(int((alpha + 1.0) * 0.5 * bins), 0), bins - 1)
             b2 = min(max(int(phi * bins), 0), bins - 1)
-            b3 = min(max(int((theta + 0.5 * math.pi) / math.pi * bins), 0), bins - 1)
+            if x == 0.0 and y == 0.0:
+                b3 = bins // 2  # atan2(0, 0) = 0
+            else:
+                b3 = 0
+                for e in range(bins - 1):
+                    if y >= x * tan_edge[e]:
+                        b3 += 1
             out[i, b1] += 1.0
             out[i, bins + b2] += 1.0
             out[i, 2 * bins + b3] += 1.0
