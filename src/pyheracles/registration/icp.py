@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import EstimationError, InputError
@@ -143,6 +142,16 @@ def estimate_normals(
     return normals
 
 
+def _rotation_matrix(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix of a rotation vector (axis times angle, radians; Rodrigues)."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        K = np.cross(np.eye(3), rotvec)  # [rotvec]_x: the first-order rotation
+        return np.eye(3) + K
+    K = np.cross(np.eye(3), rotvec / angle)
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
+
+
 def _as_cloud(c: PointCloud | ArrayLike, what: str) -> PointCloud:
     if isinstance(c, PointCloud):
         return c.validate(what=what)
@@ -206,8 +215,8 @@ def icp(
     A0 = T0[:3, :3]
     shift = A0 @ src.offset + T0[:3, 3] - tgt.offset
     # point spacing of the target, measured on a sample
-    probe = rng.choice(len(txyz), size=min(2000, len(txyz)), replace=False)
-    d2, _ = tree.query(txyz[probe], k=2, workers=-1)
+    probe = np.sort(rng.choice(len(txyz), size=min(2000, len(txyz)), replace=False))
+    d2, _ = tree.query(txyz[probe], k=2)  # too few points to be worth a second thread
     spacing = float(np.median(d2[:, 1])) if len(txyz) > 1 else 0.01
     spacing = max(spacing, 1e-6)
     d_start = p.max_correspondence_m or 15.0 * spacing
@@ -233,7 +242,7 @@ def icp(
     converged = False
     H = np.eye(6)
     sigma2 = 0.0
-    extent = float(np.linalg.norm(np.ptp(txyz, axis=0))) or 1.0
+    extent = float(np.linalg.norm(tree.maxes - tree.mins)) or 1.0  # the tree's bounding box
     for level, (n_samp, dmax) in enumerate(zip(p.samples, dists, strict=True)):
         # in the source's order: neighbouring queries walk the same tree branches
         idx = np.sort(rng.choice(len(src), size=min(n_samp, len(src)), replace=False))
@@ -268,7 +277,11 @@ def icp(
             scale = max(1.4826 * float(np.median(np.abs(r))), 0.1 * spacing)
             c = 4.685 * scale
             w = np.where(np.abs(r) < c, (1 - (r / c) ** 2) ** 2, 0.0)
-            J = np.hstack([np.cross(pk, n), n])
+            J = np.empty((len(pk), 6))
+            J[:, 0] = pk[:, 1] * n[:, 2] - pk[:, 2] * n[:, 1]  # p x n
+            J[:, 1] = pk[:, 2] * n[:, 0] - pk[:, 0] * n[:, 2]
+            J[:, 2] = pk[:, 0] * n[:, 1] - pk[:, 1] * n[:, 0]
+            J[:, 3:] = n
             Jw = J * w[:, None]
             H = J.T @ Jw
             g = Jw.T @ r
@@ -279,7 +292,7 @@ def icp(
                     "ICP normal equations are singular (the overlap is a single plane or "
                     "line: the transform is not determined)"
                 ) from exc
-            dR = Rotation.from_rotvec(dx[:3]).as_matrix()
+            dR = _rotation_matrix(dx[:3])
             R = dR @ R
             t = dR @ t + dx[3:]
             sw = max(float(w.sum()), 1.0)
