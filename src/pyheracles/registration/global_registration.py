@@ -46,7 +46,7 @@ from threadpoolctl import ThreadpoolController
 from pyheracles import progress
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import EstimationError, InputError
-from pyheracles.geometry.neighbours import point_spacing
+from pyheracles.geometry.neighbours import octree_pca, point_spacing
 from pyheracles.registration.consensus import (
     ConsensusParams,
     robust_rigid,
@@ -69,6 +69,10 @@ __all__ = [
 
 #: Statuses of :class:`GlobalRegistrationResult`.
 STATUSES = ("ok", "no overlap", "ambiguous")
+
+#: Targets of at most this many points get all their normals at once for the
+#: verification (beyond it the ICP samples touch a small share of the target).
+_ALL_NORMALS_UP_TO = 200_000
 
 
 @dataclass(frozen=True)
@@ -587,6 +591,13 @@ def _attempt(
         )  # fmt: skip
         quick = replace(fine, samples=(2_000, 8_000), iterations_per_level=10,
                         evaluation_samples=20_000)  # fmt: skip
+        if len(tgt) <= _ALL_NORMALS_UP_TO and np.isnan(normals_t[:, 0]).all():
+            # the ICP runs and the overlap shares will touch much of a small target:
+            # all its normals at once by the compiled octree search, about 3x cheaper
+            # per point than the lazy k-d tree estimate (the same k nearest neighbours,
+            # the point itself counted; a tie at the k-th distance may pick another)
+            k = int(min(fine.normal_neighbours, len(tgt)))
+            normals_t[:] = octree_pca(tgt.xyz, k, directions=False)[1]
 
         def refine(T0: NDArray[np.float64], prm: ICPParams) -> tuple[float, Any]:
             try:
