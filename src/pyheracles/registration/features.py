@@ -15,7 +15,9 @@ with numpy/scipy because Open3D is only a benchmark extra of pyheracles:
   angles are taken, so the descriptor does not depend on the arbitrary sign of
   a PCA normal (scans seen from different sides, no known scanner position).
   The histograms are accumulated by a compiled kernel
-  (:mod:`pyheracles.registration.fpfh_kernels`, numba).
+  (:mod:`pyheracles.registration.fpfh_kernels`, numba) over the neighbourhoods
+  of :func:`radius_neighbours` (the nearest points within the support radius,
+  found on a grid of cells as wide as the radius).
 """
 
 from __future__ import annotations
