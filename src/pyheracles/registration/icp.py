@@ -234,6 +234,8 @@ def icp(
         )
     else:
         normals = target_normals
+    # a cache given complete needs no look-up per iteration
+    complete = target_normals is not None and not np.isnan(normals[:, 0]).any()
     # incremental transform (in the target local frame) applied after the initial one
     R = np.eye(3)
     t = np.zeros(3)
@@ -267,9 +269,10 @@ def icp(
                     f"ICP lost the overlap ({frac:.1%} of the points matched at {dmax:.3g} m)"
                 )
             q_idx = nn[ok]
-            todo = np.unique(q_idx[np.isnan(normals[q_idx, 0])])
-            if len(todo):
-                normals[todo] = estimate_normals(txyz, tree, todo, p.normal_neighbours)
+            if not complete:
+                todo = np.unique(q_idx[np.isnan(normals[q_idx, 0])])
+                if len(todo):
+                    normals[todo] = estimate_normals(txyz, tree, todo, p.normal_neighbours)
             n = normals[q_idx]
             pk = ps[ok]
             r = np.einsum("ij,ij->i", pk - txyz[q_idx], n)
@@ -332,9 +335,10 @@ def icp(
         if len(sub) > 100_000:  # point-to-plane RMS from a 100k sample (normals cost)
             sub = np.sort(rng.choice(sub, size=100_000, replace=False))
         qi = nn[sub]
-        todo = np.unique(qi[np.isnan(normals[qi, 0])])
-        if len(todo):
-            normals[todo] = estimate_normals(txyz, tree, todo, p.normal_neighbours)
+        if not complete:
+            todo = np.unique(qi[np.isnan(normals[qi, 0])])
+            if len(todo):
+                normals[todo] = estimate_normals(txyz, tree, todo, p.normal_neighbours)
         r = np.einsum("ij,ij->i", ps_all[sub] - txyz[qi], normals[qi])
         rms_pl = float(np.sqrt(np.mean(r**2)))
         rms_pt = float(np.sqrt(np.mean(dist[ok] ** 2)))
