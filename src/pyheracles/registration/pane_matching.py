@@ -99,18 +99,17 @@ class MatchParams:
         Two outlines are compared only when at least this share of one of them (the one
         lying on the other: a partial outline on a whole one) lies within twice the
         finest fine gate of the other.  True poses give 0.3-0.6 where both outlines are
-        partial (church draw 20); so do wrong poses onto windows of nearly one size
-        (a synthetic 180 deg turn with sparse, scattered exterior outlines: see the
-        closing note of issue 14), so the share alone does not tell them apart.
+        partial (church draw 20), and so do wrong poses onto windows of nearly one size
+        (a 180 deg turn of a synthetic church with sparse, scattered exterior outlines,
+        accepted 12 m off): the share alone does not tell them apart.
     coarse_gate_m
         For a recess ICP solution (its pose verified by raw reveal points), outlines that
         cannot be compared within twice the finest fine gate (less than
-        ``min_outline_share`` of either lies that close to the other) but can within this
-        distance are unverified, not
-        contradicting: a sparse exterior outline seen from far below scatters a few
-        centimetres about its partner's under the true pose (church draw 4).  Outline
-        solutions keep the strict test (a one-bay shift onto windows of nearly one size
-        leaves outlines a few centimetres apart too).
+        ``min_outline_share`` of either lies that close to the other) but can within
+        this distance are unverified, not contradicting: a sparse exterior outline seen
+        from far below sits a few centimetres off its partner's under the true pose
+        (church draw 4).  Outline solutions keep the strict test (a one-bay shift onto
+        windows of nearly one size leaves outlines a few centimetres apart too).
     min_outline_spread
         An outline comparison verifies an opening only when its in-plane normals fix
         both directions: the smaller eigenvalue of their 2 x 2 second-moment matrix is
