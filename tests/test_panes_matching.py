@@ -251,3 +251,24 @@ def test_lights_of_another_size_alone_do_not_decide() -> None:
     m = match_openings(src, tgt)
     assert isinstance(m, str), m
     assert "of one size" in m
+
+
+def test_three_outlines_alone_do_not_decide() -> None:
+    """Church draw 43: three partial exterior outlines agreed with interior ones under a
+    pose 7 m off, no raw reveal point verifying it, and it was returned.  Without raw
+    points, three agreeing outlines are refused; a fourth decides."""
+    rng = np.random.default_rng(43)
+    src = [
+        _opening([0.0, 0.0, 3.0], [0, 1, 0], 1.0, 2.2, rng, face=0),
+        _opening([3.0, 0.0, 3.0], [0, 1, 0], 1.2, 2.6, rng, face=0),
+        _opening([-2.0, 5.0, 3.5], [1, 0, 0], 0.9, 2.0, rng, face=2),
+        _opening([4.0, 10.0, 3.0], [0, -1, 0], 1.1, 2.4, rng, face=1),
+    ]
+    tgt = [_moved(o, T_TRUE, rng) for o in src]
+    m = match_openings(src[:3], tgt[:3])
+    assert isinstance(m, str) and "no raw reveal points" in m
+    m3 = match_openings(src[:3], tgt[:3], MatchParams(min_outline_openings=3))
+    assert isinstance(m3, OpeningMatch) and m3.method == "outlines"
+    m4 = match_openings(src, tgt)
+    assert isinstance(m4, OpeningMatch) and len(m4.pairs) == 4
+    np.testing.assert_allclose(m4.T_target_source, T_TRUE, atol=2e-3)

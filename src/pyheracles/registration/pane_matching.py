@@ -141,6 +141,10 @@ class MatchParams:
         a trace of one per opening) for the recess solution to be taken: the weakest
         translation must be fixed by at least this share of one opening's reveal
         points (0 for reveals of one wall direction without splays).
+    min_outline_openings
+        Fewest agreeing outlines of openings of one size for a solution that the raw
+        recess points do not verify (three partial outlines agreed under a pose 7 m off
+        in church draw 43; the outline solutions of the church sweep rest on 11-18).
     max_basin_m
         The recess solution is taken only when the minima reached from displaced starts
         lie within this RMS distance of it over the matched pane centres
@@ -171,6 +175,7 @@ class MatchParams:
     recess_icp: PaneICPParams | None = field(default_factory=PaneICPParams)
     recess_depth_weight: float = 1.0
     min_translation_spread: float = 0.1
+    min_outline_openings: int = 4
     max_basin_m: float = 0.005
 
 
@@ -609,6 +614,11 @@ def match_openings(
     runner = max((r[0] for r in results[1:] if not _same_pose(r[1], best[1], cbar)), default=0)
     if best[0] < p.min_openings:
         return f"only {best[0]} openings whose outlines agree (of {len(best[2])} matched)"
+    if best[6]["method"] == "outlines" and best[0] < p.min_outline_openings:
+        return (
+            f"only {best[0]} openings whose outlines agree and no raw reveal points verify "
+            f"them (at least {p.min_outline_openings} outlines needed without them)"
+        )
     if runner >= p.min_openings and runner >= p.ambiguity_ratio * best[0]:
         return (
             f"ambiguous arrangement: two different solutions explain {best[0]} and "

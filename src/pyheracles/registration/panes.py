@@ -482,7 +482,13 @@ def _opening(
     # and they would pass for glass or reveal
     ring = np.zeros(len(q), bool)
     ring[ok] = grow[gi[ok], gj[ok]] & ~near_edge[gi[ok], gj[ok]]
-    floor = recess_floor(dep[ring & (np.abs(dep) < p.face_band_m)], p)
+    on_ring = ring & (np.abs(dep) < p.face_band_m)
+    floor = recess_floor(dep[on_ring], p)
+    # the face's density round this opening (a detail scan of a window covers its
+    # surroundings too, beyond the face's overall density)
+    ring_cells = np.unique(gi[on_ring] * mask.shape[1] + gj[on_ring])
+    if len(ring_cells) >= 8:
+        face_density = max(face_density, on_ring.sum() / (len(ring_cells) * cell * cell))
     band = inside & (np.abs(dep) > floor) & (np.abs(dep) < p.max_recess_m)
     # the recess is on the side holding more points inside the opening's prism
     side = 1.0 if (dep[band] > 0).sum() >= (dep[band] < 0).sum() else -1.0
@@ -510,7 +516,8 @@ def _opening(
     if depth_g is None or depth_g < 0.03:
         return None
     mid = depth_g + p.pane_thickness_m / 2
-    # door leaf or panel: a dense planar patch filling the opening at depth
+    # door leaf or panel: a dense planar patch filling the opening at depth (as dense as
+    # the face round it; glass returns a fraction of the beams)
     at = pane_like & (np.abs(dd - depth_g) < 0.03)
     if at.any():
         ci = np.floor((pts[at] @ h - lo[0]) / cell).astype(int)
