@@ -134,6 +134,10 @@ def test_params_are_checked() -> None:
         GlobalRegistrationParams(min_overlap=1.5)
     with pytest.raises(InputError):
         GlobalRegistrationParams(voxel_m=-1.0)
+    with pytest.raises(InputError, match="symmetries"):
+        GlobalRegistrationParams(symmetries=-1)
+    with pytest.raises(InputError, match="rival_misfit"):
+        GlobalRegistrationParams(rival_misfit=1.0)
     with pytest.raises(InputError):
         global_registration(np.zeros((5, 3)), np.zeros((5, 3)))
 
@@ -231,6 +235,26 @@ def test_global_registration_symmetric_church_crops(
     assert sum(h["quick_overlap"] is not None for h in res.hypotheses) >= 2
     if not res.ok:
         assert res.status == "ambiguous" and res.margin < GlobalRegistrationParams().min_margin
+
+
+@pytest.mark.parametrize("seed", [3, 4, 8, 17])  # motions the old code returned "ok"
+def test_global_registration_disjoint_bays_are_never_ok(church_interiors, seed) -> None:
+    """Two disjoint crops of a church (its first and last 45 % along the nave) share no
+    surface, but the nave repeats its bays: one bay of the source fits another of the
+    target.  That pose was returned as "ok" (overlap 0.7-0.8, its few rivals below
+    chance); the target's own symmetries (the shift from bay to bay) composed with it
+    now give a different pose that fits nearly as well: "ambiguous", never "ok"."""
+    target, xyz = church_interiors
+    t_xyz = target.world_xyz()
+    c = t_xyz.mean(axis=0)
+    axis = np.linalg.eigh(np.cov((t_xyz - c)[:, :2].T))[1][:, 1]  # along the nave
+    u_t, u_s = (t_xyz - c)[:, :2] @ axis, (xyz - c)[:, :2] @ axis
+    lo, hi = np.quantile(u_t, [0.45, 0.55])
+    T = _motion(np.random.default_rng(seed), 20.0)
+    src = PointCloud.from_world(_moved(xyz[u_s >= hi], T))
+    res = global_registration(src, PointCloud.from_world(t_xyz[u_t < lo]))
+    assert not res.ok, f"disjoint crops registered as ok (overlap {res.overlap:.2f})"
+    assert res.status in ("ambiguous", "no overlap") and res.reason
 
 
 @pytest.mark.slow

@@ -22,6 +22,11 @@ rotation and translation.  The pipeline (Rusu et al. 2009; Zhou, Park & Koltun
    points within a fine gate (3 x spacing) of the target; the best-scoring one is
    refined by the full robust (Tukey) ICP of :mod:`~pyheracles.registration.icp`,
    the best score among the rivals still distinct after refinement sets the margin.
+   The target's self-similarities (its descriptors matched with those of its other
+   parts: the turn of a symmetric building, the shift from bay to bay) composed with
+   the first-ranked pose are rivals too: where the target repeats itself, the pose
+   the data support nearly as well may have too few feature matches to be found
+   as a hypothesis of its own.
 6. **Decision.**  The result is accepted only when the overlap share, the
    consensus (against the clique size expected by chance), the geometric
    conditioning of the overlap (the six motions must all be constrained) and
@@ -49,6 +54,7 @@ from pyheracles.errors import EstimationError, InputError
 from pyheracles.geometry.neighbours import octree_pca, point_spacing
 from pyheracles.registration.consensus import (
     ConsensusParams,
+    RigidHypothesis,
     robust_rigid,
 )
 from pyheracles.registration.features import (
@@ -73,6 +79,9 @@ STATUSES = ("ok", "no overlap", "ambiguous")
 #: Targets of at most this many points get all their normals at once for the
 #: verification (beyond it the ICP samples touch a small share of the target).
 _ALL_NORMALS_UP_TO = 200_000
+
+#: Points of the target matched with its other parts in the search for its symmetries.
+_SELF_MATCH_ROWS = 2_000
 
 
 @dataclass(frozen=True)
@@ -137,6 +146,19 @@ class GlobalRegistrationParams:
         ``"ambiguous"`` when a different pose (sharing less than half of its matches
         with the chosen one) has at least this share of the chosen pose's consistent
         matches and is itself beyond chance: symmetric or repeated structure.
+    rival_misfit
+        A different pose is no rival (whatever its overlap) when the share of source
+        points it leaves outside the fine gate is at least this multiple of the share
+        the chosen pose leaves (``1 - overlap`` of the quick refinements): the chosen
+        pose explains nearly all of the source and the other a clearly smaller part.
+    symmetries
+        At most this many self-similarities of the target (a turn or a shift mapping
+        one part of it onto another: symmetric or repeated structure, found by matching
+        its descriptors with those of its other parts and a consensus beyond
+        ``rival_significance`` x chance) are composed, each with its inverse too, with the
+        first-ranked pose; each such different pose whose coarse overlap is within
+        ``min_margin`` of the first-ranked one is refined and compared like a rival,
+        even when few feature matches support it.  0: off.
     seed
         Seed of every random choice.
     """
@@ -161,6 +183,8 @@ class GlobalRegistrationParams:
     rival_significance: float = 2.0
     same_pose_voxels: float = 2.0
     finer_retries: tuple[float, ...] = (1.0, 4.0)
+    rival_misfit: float = 3.0
+    symmetries: int = 2
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -176,6 +200,11 @@ class GlobalRegistrationParams:
             raise InputError("finer_retries must be a non-empty list of positive multiples")
         if not (self.rival_significance > 0 and self.same_pose_voxels > 0):
             raise InputError("rival_significance and same_pose_voxels must be positive")
+        if self.symmetries < 0 or not self.rival_misfit > 1:
+            raise InputError(
+                f"symmetries must be >= 0 and rival_misfit > 1, got {self.symmetries} and "
+                f"{self.rival_misfit}"
+            )
         if self.hypotheses < 1 or self.max_correspondences < 3:
             raise InputError("hypotheses must be >= 1 and max_correspondences >= 3")
 
@@ -416,6 +445,68 @@ def _shares(
     return float(ok.mean()), float(np.isfinite(d2).mean()), pts, normals_t[rows]
 
 
+def _nearest_far(
+    desc: NDArray[np.float64],
+    pts: NDArray[np.float64],
+    rows: NDArray[np.intp],
+    min_m: float,
+    block: int = 256,
+) -> NDArray[np.intp]:
+    """For each of ``rows``, the row of ``desc`` nearest to its descriptor among those
+    of the points at least ``min_m`` metres from it (brute force as :func:`_two_nearest`,
+    the nearby points masked out of the scores)."""
+    x = np.ascontiguousarray(desc[rows], dtype=np.float32)
+    y = np.ascontiguousarray(desc, dtype=np.float32)
+    # [x, 1] . [y, -|y|^2 / 2] = x.y - |y|^2 / 2: larger for nearer descriptors
+    x_aug = np.hstack([x, np.ones((len(x), 1), dtype=np.float32)])
+    y_aug = np.vstack([y.T, np.float32(-0.5) * np.einsum("ij,ij->i", y, y)[None, :]])
+    near = cKDTree(pts).query_ball_point(pts[rows], min_m, workers=-1, return_sorted=False)
+    lens = np.array([len(n) for n in near])
+    r_near = np.repeat(np.arange(len(rows)), lens)
+    c_near = np.concatenate([np.asarray(n, dtype=np.intp) for n in near])
+    starts = np.searchsorted(r_near, np.arange(0, len(rows), block))
+    out = np.empty(len(rows), dtype=np.intp)
+    buffer = np.empty((min(block, len(rows)), len(desc)), dtype=np.float32)
+    for b, s in enumerate(range(0, len(rows), block)):
+        score = buffer[: min(block, len(rows) - s)]
+        np.matmul(x_aug[s : s + block], y_aug, out=score)
+        e = starts[b + 1] if b + 1 < len(starts) else len(r_near)
+        score[r_near[starts[b] : e] - s, c_near[starts[b] : e]] = -np.inf
+        out[s : s + block] = score.argmax(axis=1)
+    return out
+
+
+def _self_similarities(
+    pts: NDArray[np.float64],
+    desc: NDArray[np.float64],
+    min_m: float,
+    cp: ConsensusParams,
+    p: GlobalRegistrationParams,
+) -> list[NDArray[np.float64]]:
+    """Rigid motions ``S`` (4x4, ``pts``' frame) that map one part of a cloud onto another.
+
+    Points (at most ``_SELF_MATCH_ROWS``, evenly spread over the rows) are matched with
+    the nearest descriptor (rows of ``desc``) among those of points at least ``min_m``
+    metres away, and the graph-guided RANSAC of
+    :func:`~pyheracles.registration.consensus.robust_rigid` finds the consistent
+    motions: a 2-fold turn of a symmetric building, the shift from one bay to the
+    next.  Only motions whose consensus is at least ``p.rival_significance`` times the
+    clique size expected by chance (and ``p.min_inliers``) are returned, at most
+    ``p.symmetries``, strongest first.
+    """
+    rows = np.arange(0, len(pts), max(1, -(-len(pts) // _SELF_MATCH_ROWS)))
+    if len(rows) < 3:
+        return []
+    partner = _nearest_far(desc, pts, rows, min_m)
+    hyps, stats = robust_rigid(
+        pts[rows],
+        pts[partner],
+        replace(cp, max_hypotheses=p.symmetries, min_samples=256, max_samples=1024),
+    )
+    need = max(p.rival_significance * float(stats.get("null_clique", 1.0)), p.min_inliers)
+    return [h.matrix for h in hyps if h.n_inliers >= need]
+
+
 def global_registration(
     source: PointCloud | ArrayLike,
     target: PointCloud | ArrayLike,
@@ -584,6 +675,31 @@ def _attempt(
             if hyps[q].n_inliers >= chance
             and not _same_pose(T_hyp[q], T_hyp[order[0]], where, distinct_m)
         ]
+        # the target's own symmetries composed with the first-ranked pose: where the
+        # target repeats itself the source fits there too, yet such a pose may have few
+        # matches (each source point has one nearest descriptor, and the better-fitting
+        # pose takes most of them): it would never be beyond chance as a hypothesis
+        n_hyps = len(hyps)
+        if p.symmetries:
+            h0 = hyps[order[0]]
+            for S in _self_similarities(dt, np.sqrt(ft), radius, cp, p):
+                for M in (S, np.linalg.inv(S)):
+                    R, t = M[:3, :3] @ h0.R, M[:3, :3] @ h0.t + M[:3, 3]
+                    Tw = _world(R, t, src.offset, tgt.offset)
+                    if any(
+                        _same_pose(Tw, T_hyp[q], where, distinct_m)
+                        for q in [order[0], *rival_q, *range(n_hyps, len(hyps))]
+                    ):
+                        continue
+                    inl = np.linalg.norm(ds[i_s] @ R.T + t - dt[i_t], axis=1) < cp.inlier_m
+                    hyps.append(RigidHypothesis(R=R, t=t, inliers=inl, n_samples_supporting=0))
+                    T_hyp.append(Tw)
+                    d, _ = tree_dt.query(ds @ R.T + t, k=1, distance_upper_bound=voxel, workers=-1)
+                    coarse.append(float(np.isfinite(d).mean()))
+                    # refined (and compared) only when it could come within the margin
+                    if coarse[-1] >= (1.0 - p.min_margin) * coarse[order[0]]:
+                        rival_q.append(len(hyps) - 1)
+        mirrored = set(range(n_hyps, len(hyps)))  # rivals from the target's symmetries
         gate = p.gate_spacings * max(sp_t, sp_s)
         fine = ICPParams(
             max_correspondence_m=max(gate, voxel), overlap_distance_m=gate,
@@ -606,7 +722,7 @@ def _attempt(
                 return 0.0, None
             return r.overlap_fraction, r
 
-        win, second, second_inliers = order[0], 0.0, 0
+        win, second, second_inliers, top_from_symmetry = order[0], 0.0, 0, False
         best_q = order[0]  # the hypothesis whose quick score stands for the chosen pose
         quick_score: dict[int, float] = {}
         pose: dict[int, NDArray[np.float64]] = {}
@@ -622,16 +738,23 @@ def _attempt(
             pose = {
                 q: T_hyp[q] if r is None else r.T_target_source for q, (_, r) in refined.items()
             }
-            best_q = max(refined, key=lambda q: refined[q][0])  # a better-fitting rival wins
+            # a better-fitting rival of its own consensus wins; one from a symmetry of the
+            # target only rivals (its few matches would not make it significant)
+            best_q = max((q for q in refined if q not in mirrored), key=lambda q: refined[q][0])
             # the refined hypotheses that converged onto the best-fitting pose are that pose
             same = {q for q in refined if _same_pose(pose[q], pose[best_q], where, distinct_m)}
             chosen = same | chosen if order[0] in same else same
             # the pose is represented by its hypothesis of the largest consensus
             win = max(same, key=lambda q: (hyps[q].n_inliers, refined[q][0]))
-            rival_of = [q for q in refined if q not in same]
+            # a different pose is a rival unless it leaves clearly more of the source
+            # unexplained than the chosen one, which explains nearly all of it (a crop
+            # inside a building of repeated bays fits the next bay only in part)
+            misfit = p.rival_misfit * (1.0 - refined[best_q][0])
+            rival_of = [q for q in refined if q not in same and 1.0 - refined[q][0] < misfit]
             if rival_of:
                 top = max(rival_of, key=lambda q: refined[q][0])
                 second, second_inliers = refined[top][0], hyps[top].n_inliers
+                top_from_symmetry = top in mirrored
         h_best = hyps[win]
         # the full refinement starts from the best-fitting quick refinement of the pose
         # (ICP from another hypothesis of it may stop in a neighbouring local minimum)
@@ -647,7 +770,7 @@ def _attempt(
     hyp_report = [
         {"inliers": h.n_inliers, "samples_supporting": h.n_samples_supporting,
          "coarse_overlap": c, "quick_overlap": quick_score.get(q), "chosen": q == win,
-         "rival": q in rival_of}
+         "rival": q in rival_of, "from_symmetry": q in mirrored}
         for q, (h, c) in enumerate(zip(hyps, coarse, strict=True))
     ]  # fmt: skip
     # the larger of the two shares: a small cloud inside a large one overlaps fully
@@ -656,6 +779,9 @@ def _attempt(
     inliers = h_best.n_inliers
     significance = inliers / max(null, 1.0)
     margin = 1.0 - second / best_score if best_score > 0 else 0.0
+    repeats = (
+        ": the target repeats itself (symmetric or repeated structure)" if top_from_symmetry else ""
+    )
     # does the consensus stand out against the best different pose?
     stands_out = inliers >= p.min_significance * max(null, second_inliers, 1.0)
     # the strongest different pose by its own matches (a hypothesis of the chosen pose,
@@ -691,7 +817,7 @@ def _attempt(
         status = "ambiguous"
         reason = (
             f"no pose stands out: {inliers} consistent matches against {second_inliers} for a "
-            f"different pose, overlap {best_score:.1%} against {second:.1%}"
+            f"different pose, overlap {best_score:.1%} against {second:.1%}{repeats}"
         )
     elif cond < p.min_conditioning:
         status = "ambiguous"
@@ -703,7 +829,7 @@ def _attempt(
         status = "ambiguous"
         reason = (
             f"a different pose fits almost as well (overlap {second:.1%} against "
-            f"{best_score:.1%}; margin {margin:.2f} < {p.min_margin:.2f})"
+            f"{best_score:.1%}; margin {margin:.2f} < {p.min_margin:.2f}){repeats}"
         )
     else:
         status, reason = "ok", ""
