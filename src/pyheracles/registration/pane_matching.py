@@ -60,6 +60,9 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
+#: How a failure for two solutions fitting alike begins.
+AMBIGUOUS = "ambiguous arrangement"
+
 
 @dataclass(frozen=True)
 class MatchParams:
@@ -513,8 +516,9 @@ def match_openings(
 ) -> OpeningMatch | str:
     """Match the openings of two clouds; a failure is returned as its reason (a string).
 
-    When no trustworthy match is found, the arrangement is searched once more with the
-    centre tolerances (``distance_tolerance_m``, ``centre_gate_m``) multiplied by
+    When no trustworthy match is found (for another reason than an ambiguous
+    arrangement), the arrangement is searched once more with the centre tolerances
+    (``distance_tolerance_m``, ``centre_gate_m``) multiplied by
     ``retry_tolerance_factor``; a solution of that search is taken only when the raw
     recess points verify it (``method == "recess_icp"``).
 
@@ -526,7 +530,12 @@ def match_openings(
     """
     p = params or MatchParams()
     first = _match(source, target, p)
-    if not isinstance(first, str) or p.retry_tolerance_factor <= 1 or p.recess_icp is None:
+    if (
+        not isinstance(first, str)
+        or first.startswith(AMBIGUOUS)  # two solutions fit: a looser search must not pick one
+        or p.retry_tolerance_factor <= 1
+        or p.recess_icp is None
+    ):
         return first
     f = p.retry_tolerance_factor
     loose = replace(
@@ -649,7 +658,7 @@ def _match(source: list[Opening], target: list[Opening], p: MatchParams) -> Open
         )
     if runner >= p.min_openings and runner >= p.ambiguity_ratio * best[0]:
         return (
-            f"ambiguous arrangement: two different solutions explain {best[0]} and "
+            f"{AMBIGUOUS}: two different solutions explain {best[0]} and "
             f"{runner} openings (repeated bays or a mirrored building)"
         )
     return OpeningMatch(
