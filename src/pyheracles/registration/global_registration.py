@@ -272,6 +272,16 @@ def _as_cloud(c: PointCloud | ArrayLike, what: str) -> PointCloud:
     return PointCloud(xyz=np.asarray(c, dtype=np.float64)).validate(what=what)
 
 
+def _ranking_factors(
+    x: NDArray[np.float32], y: NDArray[np.float32]
+) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """``[x, 1]`` and ``[y, -|y|^2 / 2]^T``: their product ``x.y - |y|^2 / 2`` ranks the
+    rows of ``y`` by their distance to each row of ``x`` (larger: nearer)."""
+    x_aug = np.hstack([x, np.ones((len(x), 1), dtype=np.float32)])
+    y_aug = np.vstack([y.T, np.float32(-0.5) * np.einsum("ij,ij->i", y, y)[None, :]])
+    return x_aug, y_aug
+
+
 def _two_nearest(
     x: NDArray[np.float64], y: NDArray[np.float64], rows: int = 256
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
@@ -287,9 +297,7 @@ def _two_nearest(
     k = min(2, len(y))
     xf = np.ascontiguousarray(x, dtype=np.float32)
     yf = np.ascontiguousarray(y, dtype=np.float32)
-    # [x, 1] . [y, -|y|^2 / 2] = x.y - |y|^2 / 2
-    x_aug = np.hstack([xf, np.ones((len(xf), 1), dtype=np.float32)])
-    y_aug = np.vstack([yf.T, np.float32(-0.5) * np.einsum("ij,ij->i", yf, yf)[None, :]])
+    x_aug, y_aug = _ranking_factors(xf, yf)
     best = np.empty((len(xf), k))
     j_out = np.empty((len(xf), k), dtype=np.intp)
     buffer = np.empty((min(rows, len(xf)), len(yf)), dtype=np.float32)
@@ -445,6 +453,18 @@ def _shares(
     return float(ok.mean()), float(np.isfinite(d2).mean()), pts, normals_t[rows]
 
 
+def _coarse_overlap(
+    tree: cKDTree,
+    pts: NDArray[np.float64],
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    gate: float,
+) -> float:
+    """Share of ``pts`` moved by ``(R, t)`` within ``gate`` of the points of ``tree``."""
+    d, _ = tree.query(pts @ R.T + t, k=1, distance_upper_bound=gate, workers=-1)
+    return float(np.isfinite(d).mean())
+
+
 def _nearest_far(
     desc: NDArray[np.float64],
     pts: NDArray[np.float64],
@@ -455,11 +475,10 @@ def _nearest_far(
     """For each of ``rows``, the row of ``desc`` nearest to its descriptor among those
     of the points at least ``min_m`` metres from it (brute force as :func:`_two_nearest`,
     the nearby points masked out of the scores)."""
-    x = np.ascontiguousarray(desc[rows], dtype=np.float32)
-    y = np.ascontiguousarray(desc, dtype=np.float32)
-    # [x, 1] . [y, -|y|^2 / 2] = x.y - |y|^2 / 2: larger for nearer descriptors
-    x_aug = np.hstack([x, np.ones((len(x), 1), dtype=np.float32)])
-    y_aug = np.vstack([y.T, np.float32(-0.5) * np.einsum("ij,ij->i", y, y)[None, :]])
+    x_aug, y_aug = _ranking_factors(
+        np.ascontiguousarray(desc[rows], dtype=np.float32),
+        np.ascontiguousarray(desc, dtype=np.float32),
+    )
     near = cKDTree(pts).query_ball_point(pts[rows], min_m, workers=-1, return_sorted=False)
     lens = np.array([len(n) for n in near])
     r_near = np.repeat(np.arange(len(rows)), lens)
@@ -660,8 +679,7 @@ def _attempt(
         tree_dt = cKDTree(dt)
         coarse = []
         for h in hyps:
-            d, _ = tree_dt.query(ds @ h.R.T + h.t, k=1, distance_upper_bound=voxel, workers=-1)
-            coarse.append(float(np.isfinite(d).mean()))
+            coarse.append(_coarse_overlap(tree_dt, ds, h.R, h.t, voxel))
         order = [int(q) for q in np.argsort(coarse, kind="stable")[::-1]]
         # poses compared where the data are: RMS displacement of the source's voxels
         where = ds[:: max(1, len(ds) // 2000)] + src.offset
@@ -694,8 +712,7 @@ def _attempt(
                     inl = np.linalg.norm(ds[i_s] @ R.T + t - dt[i_t], axis=1) < cp.inlier_m
                     hyps.append(RigidHypothesis(R=R, t=t, inliers=inl, n_samples_supporting=0))
                     T_hyp.append(Tw)
-                    d, _ = tree_dt.query(ds @ R.T + t, k=1, distance_upper_bound=voxel, workers=-1)
-                    coarse.append(float(np.isfinite(d).mean()))
+                    coarse.append(_coarse_overlap(tree_dt, ds, R, t, voxel))
                     # refined (and compared) only when it could come within the margin
                     if coarse[-1] >= (1.0 - p.min_margin) * coarse[order[0]]:
                         rival_q.append(len(hyps) - 1)
