@@ -134,8 +134,8 @@ def test_shifted_outlines_are_rescued_by_the_raw_reveals() -> None:
 @pytest.mark.parametrize("gable", [False])
 def test_reveals_of_one_wall_direction_do_not_decide(gable: bool) -> None:
     """Straight reveals on two parallel walls leave the depth along their normal to the
-    (unreliable) pane depths: the recess solution is not taken, and with shifted
-    outlines nothing is returned."""
+    pane depths, which never decide alone (even when, as here, they agree): the recess
+    solution is not taken, and with shifted outlines nothing is returned."""
     rng = np.random.default_rng(7)
     S, Tg = _church(rng, [0.1, 0.0, -0.1, 0.1, 0.0, -0.1], gable=gable)
     m = match_openings(S, Tg, MatchParams())
@@ -145,6 +145,43 @@ def test_reveals_of_one_wall_direction_do_not_decide(gable: bool) -> None:
     r = refine_on_recesses(S, Tg, pairs, T_TRUE, np.zeros(len(pairs)), PaneICPParams())
     moment = r.normal_moment[r.verdict == 1].sum(axis=0)
     assert np.linalg.eigvalsh(moment)[0] < 0.01
+
+
+def _sparse(o: Opening, n: int, rng, depth_m: float = 0.0) -> Opening:
+    """``o`` with ``n`` raw recess points (too few for a verdict of their own) and its
+    pane depth taken where a reveal ends ``depth_m`` short of the glass (centre and
+    outline moved towards its viewer)."""
+    r = rng.choice(len(o.recess), n, replace=False)
+    off = depth_m * o.normal
+    return replace(
+        o,
+        centre=o.centre + off,
+        outline=o.outline + off,
+        recess=o.recess[r],
+        recess_normal=o.recess_normal[r],
+    )
+
+
+def test_sparse_reveals_of_another_wall_hold_what_parallel_reveals_leave_free() -> None:
+    """Church draw 46 (exterior TLS, 8 stations): the openings verified by their raw
+    points lie on the two long walls and leave the depth along their normal free; a
+    gable window too sparse for a verdict of its own (30 points a side) still holds it
+    through its jambs, which the test of the moment alone ignored: refused.  Three long-wall
+    openings, as sparse, took their pane depth where a reveal ends 12-20 cm short; their
+    outlines, compared in 3D, counted as contradictions: they are compared in the pane
+    plane, the depth being the raw reveals' to fix."""
+    rng = np.random.default_rng(7)
+    S, Tg = _church(rng, [0.1, 0.0, -0.1, 0.1, 0.0, -0.1, 0.0])
+    S[6], Tg[6] = _sparse(S[6], 30, rng), _sparse(Tg[6], 30, rng)
+    for k, d in ((1, 0.12), (3, 0.15), (4, 0.2)):
+        Tg[k] = _sparse(Tg[k], 20, rng, depth_m=d)
+    m = match_openings(S, Tg, MatchParams())
+    assert isinstance(m, OpeningMatch)
+    assert m.method == "recess_icp"
+    assert _pose_error(m.T_target_source, S) < 0.003
+    # the moment of the verified openings alone leaves the depth free: refused
+    alone = MatchParams(recess_icp=PaneICPParams(restart_m=0.0))
+    assert isinstance(match_openings(S, Tg, alone), str)
 
 
 def test_depth_rows_are_robust() -> None:

@@ -143,7 +143,14 @@ class MatchParams:
         their raw points (:attr:`~pyheracles.registration.pane_icp.PaneICPResult.normal_moment`,
         a trace of one per opening) for the recess solution to be taken: the weakest
         translation must be fixed by at least this share of one opening's reveal
-        points (0 for reveals of one wall direction without splays).
+        points (0 for reveals of one wall direction without splays).  A weaker
+        translation still stands when the raw reveal points hold it: the recess ICP
+        without the pane-depth rows, started ``restart_m`` off along it both ways,
+        returns within ``max_basin_m`` (the openings not verified on their own, too
+        sparse for a verdict, still pull; church draw 46).  Pane depths alone never fix
+        it: a depth from a reveal ending short errs by decimetres, and photogrammetric
+        depths scatter by a centimetre, which lets the pose turn (church draw 35: seven
+        depths agreeing within 1.5 cm, the pose 1.2 cm off).
     min_outline_openings
         Fewest agreeing outlines of openings of one size for a solution that the raw
         recess points do not verify (three partial outlines agreed under a pose 7 m off
@@ -199,7 +206,9 @@ class OpeningMatch:
     T_target_source
         Rigid transform from the fine fit.
     pairs
-        ``(K, 2)`` indices of the matched openings (source, target) whose outlines agree.
+        ``(K, 2)`` indices of the matched openings (source, target) giving tie points:
+        those whose outlines agree, or for a recess solution those its raw points
+        verify (when at least ``min_openings``).
     outline_rms
         ``(K,)`` RMS point-to-line distance of each matched outline, metres.
     local
@@ -433,8 +442,14 @@ def _rotvec(w: Array) -> Array:
     return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
 
-def _agreement(S, Tg, pairs, T, p: MatchParams):
+def _agreement(S, Tg, pairs, T, p: MatchParams, in_plane: bool = False):
     """Per pair: median and RMS point-to-line distance of the outline, local transform.
+
+    With ``in_plane`` the mapped source outline is first moved along the partner's
+    normal onto its mid-plane: the outlines are compared in the pane plane only, for
+    a pose whose depth the raw reveals fix (a pane depth from a reveal ending short
+    puts a whole outline decimetres off the partner's mid-plane, which says nothing
+    of its place in the plane: church draw 46).
 
     ``inf``: the outlines cannot be compared (less than ``min_outline_share`` of either
     within the gate);
@@ -450,6 +465,8 @@ def _agreement(S, Tg, pairs, T, p: MatchParams):
     for k, (i, j) in enumerate(pairs):  # tens of openings
         P, Pn = _subsample(S[i], p.max_outline_points)
         P = P @ R.T + t
+        if in_plane:
+            P = P - np.outer((P - Tg[j].centre) @ Tg[j].normal, Tg[j].normal)
         Q = Tg[j].outline
         tree_q, tree_p = cKDTree(Q), cKDTree(P)
         d, nb = tree_q.query(P, distance_upper_bound=gate)
@@ -496,6 +513,10 @@ def _agreement(S, Tg, pairs, T, p: MatchParams):
         # the partner's depth corrects the global one only where it is of the most
         # certain kind present (from glass on both sides when some pair has that)
         dz = -(cm - c) @ nz if trusted[k] else 0.0
+        if in_plane and abs(dz) > gate:
+            # compared in the plane only: a depth farther off than the 3D comparison
+            # would compare is not taken
+            dz = 0.0
         r2 = r + A @ x
         med.append(float(np.median(np.abs(r2))))
         rms.append(float(np.sqrt(np.mean(r2**2))))
@@ -711,7 +732,7 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
     else:
         return None  # the arrangement does not settle
     T = r.T_target_source
-    med, rms, local, coarse = _agreement(S, Tg, pairs, T, p)
+    med, rms, local, coarse = _agreement(S, Tg, pairs, T, p, in_plane=True)
     sizes = _size_compatible(S, Tg, pairs, p)
     o_good = med < p.fine_tolerance_m
     # with the pose fixed by raw reveal points, outlines that cannot be compared finely
@@ -725,7 +746,10 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
         return None
     raw = v == 1
     moment = r.normal_moment[v == 1].sum(axis=0)  # one unit of trace per opening
-    if np.linalg.eigvalsh(moment)[0] < p.min_translation_spread:
+    ev, evec = np.linalg.eigh(moment)
+    if ev[0] < p.min_translation_spread and not _held_by_reveals(
+        S, Tg, pairs, T, evec[:, 0], p, trees
+    ):
         return None  # the raw points leave a translation free: outlines only
     # evidence: openings whose raw points agree and fix both in-plane directions (their
     # detected sizes may differ: an outline seen in part measures short), and agreeing
@@ -754,7 +778,41 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
         "recess_rms_m": float(r.rms_m),
         "recess_basin_m": basin,
     }
-    return n_verified, int(good.sum()), T, pairs[good], res[good], loc[good], bad, extras
+    # tie points from the openings verified by their raw points when there are enough:
+    # an opening verified by its outline alone would carry that outline's in-plane fit
+    # (a derived, partial outline: the reason for this refinement) into the similarity
+    # (church draws 7 and 31: 3.6 -> 6.8 mm and 5.8 -> 8.1 mm off with them)
+    ties = raw if raw.sum() >= p.min_openings else good
+    return n_verified, int(good.sum()), T, pairs[ties], res[ties], loc[ties], bad, extras
+
+
+def _held_by_reveals(S, Tg, pairs, T, direction: Array, p: MatchParams, trees) -> bool:
+    """Whether the raw recess points alone bring the pose back along ``direction``.
+
+    The recess ICP without pane-depth rows is started from ``T`` moved by the recess
+    ICP's ``restart_m`` along ``direction`` (one way, then the other); the pose is held
+    when both minima lie within ``max_basin_m`` of ``T`` (RMS over the matched pane
+    centres).  A direction that no reveal constrains leaves a start where it is.
+    """
+    pi = p.recess_icp
+    assert pi is not None
+    if pi.restart_m <= 0:
+        return False
+    fast = replace(pi, restart_m=0.0)
+    centres = np.array([S[i].centre for i in pairs[:, 0]])
+    ref = centres @ T[:3, :3].T + T[:3, 3]
+    for sign in (-1.0, 1.0):
+        Ts = T.copy()
+        Ts[:3, 3] += sign * pi.restart_m * direction
+        r = refine_on_recesses(
+            S, Tg, pairs, Ts, np.zeros(len(pairs)), fast, opposite_sides=p.opposite_sides,
+            trees=trees,
+        )
+        Tr = r.T_target_source
+        d = centres @ Tr[:3, :3].T + Tr[:3, 3] - ref
+        if np.sqrt(np.mean(np.sum(d**2, axis=1))) > p.max_basin_m:
+            return False
+    return True
 
 
 def _same_pose(
