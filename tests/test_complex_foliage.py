@@ -67,6 +67,26 @@ def test_small_buildings_of_a_sparse_survey_get_objects() -> None:
     assert f1["building/B19"] >= 0.8 and f1["building/B17"] >= 0.8
 
 
+def test_echoes_decide_where_the_surface_variation_flags_a_whole_building(monkeypatch) -> None:
+    """Draw 9 (0.16 points/m^2): the 12 neighbours of the surface variation span a whole
+    pavilion (B06: 13 points, all single returns, platform 1.1 m and roof 4-5.5 m) and
+    every point looked scattered: no object.  B32 (15 points under a crown) likewise.
+    The points where a pulse ended and that are not amid pass-through returns now make
+    the core (F1 0.96 and 0.93; one single return of the crown 5 m over B06's roof joins
+    it)."""
+    _, f1 = _run(9)
+    assert f1["building/B06"] >= 0.95 and f1["building/B32"] >= 0.9
+    # without the solid points as a core both are lost, as before
+    from pyheracles.complex import clusters, segment
+
+    def geometry_only(*args, solid=None, **kwargs):
+        return clusters.object_points(*args, **kwargs)
+
+    monkeypatch.setattr(segment, "object_points", geometry_only)
+    _, f1 = _run(9)
+    assert f1["building/B06"] == 0.0 and f1["building/B32"] == 0.0
+
+
 def test_crowns_over_roofs_stay_out() -> None:
     """Draw 18 (1.8 points/m^2, crowns over a third of the roofs): without the echoes,
     805 tree points joined objects; the porous points held to the roof surface: < 660."""

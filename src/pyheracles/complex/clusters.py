@@ -112,6 +112,7 @@ def object_points(
     scattered: NDArray[np.bool_],
     params: ComplexParams,
     porous: NDArray[np.bool_] | None = None,
+    solid: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask over ``cand`` of the points that make the polygon's object.
 
@@ -125,6 +126,9 @@ def object_points(
     ``porous`` (over ``cand``, a subset of ``scattered``) marks the points of
     porous surfaces (see :func:`porous_points`): they join only up to
     ``params.scatter_rise_m`` above the object's surface beside them.
+    ``solid`` (over ``cand``) marks the points where a pulse ended (its last or only
+    return), when the cloud has echoes: where the surface variation flags every
+    candidate, the solid points that are not porous make the core instead.
     """
     keep = np.zeros(len(cand), dtype=bool)
     cand_in = cand_dist == 0.0
@@ -132,6 +136,15 @@ def object_points(
         flipped = vote_scattered(xyz[cand], scattered, cand_in, params)
         scattered = scattered | flipped
     core = ~scattered
+    if not core.any() and solid is not None and porous is not None:
+        # On a sparse survey (0.1-0.3 points/m^2) the 12 neighbours of the surface
+        # variation span a whole small building, platform and roof together, and every
+        # point looks scattered: the building got no object (complex draw 9: a pavilion
+        # of 13 points, all single returns).  There the echoes decide: a point where
+        # its pulse ended, amid others that ended (not porous), is a solid surface; a
+        # crown's last returns lie amid its pass-through returns and stay out.
+        core = solid & ~porous
+        scattered = ~core
     if core.sum() == 0:
         return keep
     labels = cluster(xyz[cand[core]], params)

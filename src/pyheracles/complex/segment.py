@@ -119,7 +119,8 @@ def _segment_layer(
         sl = slice(bounds[k], bounds[k + 1])
         cand, cand_dist = pts[sl], offpoly[sl]
         keep = object_points(
-            xyz, cand, cand_dist, scattered[sl], rp, None if porous is None else porous[sl]
+            xyz, cand, cand_dist, scattered[sl], rp, None if porous is None else porous[sl],
+            solid=None if site.pass_through is None else ~site.pass_through[cand],
         )
         if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
             empty.append(gdf["source_fid"].iloc[k])
