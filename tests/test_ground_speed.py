@@ -128,3 +128,49 @@ def test_refinement_samples_the_slope_only_where_it_decides() -> None:
     assert max(sampled) < 0.35 * xy.shape[0]
     at = np.flatnonzero(rng.random(xy.shape[0]) < 0.1)
     assert np.array_equal(sampler(slope, at=at), sampler(slope)[at])
+
+
+def test_window_lookups_are_the_binary_dilation_at_those_cells() -> None:
+    """Issue 17 (8 tiles on a diagonal: a raster 8x its data): the ground growth's fronts
+    come from window look-ups at the candidate and new cells, not from dilations of the
+    raster; they must be the dilation exactly, edges included."""
+    from scipy import ndimage
+
+    from pyheracles.groundfilters.grow import window_any, window_cells
+
+    rng = np.random.default_rng(8)
+    for shape, radius in (((37, 23), 1), ((5, 60), 2), ((1, 9), 3), ((40, 40), 4)):
+        mask = rng.uniform(size=shape) < 0.05
+        window = np.ones((2 * radius + 1, 2 * radius + 1), dtype=bool)
+        dilated = ndimage.binary_dilation(mask, window)
+        cells = np.flatnonzero(rng.uniform(size=shape) < 0.3)
+        assert np.array_equal(window_any(mask, cells, radius), dilated.ravel()[cells])
+        assert np.array_equal(window_cells(np.flatnonzero(mask), shape, radius),
+                              np.flatnonzero(dilated))  # fmt: skip
+
+
+def test_mean_surface_at_occupied_cells_is_the_raster_formula() -> None:
+    """The centroid correction computed at occupied cells only is the whole-raster one
+    with :func:`numpy.gradient` bit for bit (one- and two-cell wide rasters included)."""
+    from pyheracles.groundfilters.surface import gradient, mean_surface_cells
+
+    rng = np.random.default_rng(2)
+    for w, h, n in ((60.0, 75.0, 3000), (0.5, 40.0, 200), (40.0, 0.5, 200), (2.9, 2.9, 30)):
+        xy = rng.uniform(0, 1, (n, 2)) * [w, h]
+        z = rng.normal(size=n) + 0.3 * xy[:, 0]
+        grid = Grid.covering(xy, 1.5)
+        flat = grid.flat_index(xy)
+        size = grid.shape[0] * grid.shape[1]
+        count = np.bincount(flat, minlength=size).astype(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mz, mx, my = (
+                (np.bincount(flat, weights=v, minlength=size) / count).reshape(grid.shape)
+                for v in (z, xy[:, 0], xy[:, 1])
+            )
+        rr, cc = np.indices(grid.shape)
+        gy, gx = gradient(mz, grid.cell_m)
+        dx = grid.x0_m + (cc + 0.5) * grid.cell_m - mx
+        dy = grid.y0_m - (rr + 0.5) * grid.cell_m - my
+        expected = mz + np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
+        got = mean_surface_cells(grid, flat, xy[:, 0], xy[:, 1], z)
+        assert np.array_equal(got, expected, equal_nan=True)

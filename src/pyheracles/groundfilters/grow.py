@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
-__all__ = ["grow_smooth", "smooth_components", "window_planes"]
+__all__ = ["grow_smooth", "smooth_components", "window_any", "window_cells", "window_planes"]
 
 _EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -147,6 +146,43 @@ def smooth_components(
     return labels, np.bincount(comp, minlength=1)
 
 
+def _window_offsets(
+    cells: NDArray[np.intp], shape: tuple[int, int], radius: int
+):
+    """Per offset of the (2 radius + 1)^2 window: the positions of ``cells`` (flat) whose
+    shifted cell lies in the raster, and those shifted flat cells."""
+    rows, cols = shape
+    rr, cc = np.divmod(cells, cols)
+    for dr in range(-radius, radius + 1):  # a few rows and columns of offsets
+        r = rr + dr
+        in_r = (r >= 0) & (r < rows)
+        for dc in range(-radius, radius + 1):
+            c = cc + dc
+            ok = np.flatnonzero(in_r & (c >= 0) & (c < cols))
+            yield ok, r[ok] * cols + c[ok]
+
+
+def window_any(
+    mask: NDArray[np.bool_], cells: NDArray[np.intp], radius: int
+) -> NDArray[np.bool_]:
+    """Per flat cell of ``cells``: whether ``mask`` holds a cell within its square window
+    of half width ``radius`` (a binary dilation looked up at those cells only)."""
+    flat = mask.ravel()
+    out = np.zeros(len(cells), dtype=bool)
+    for ok, shifted in _window_offsets(cells, mask.shape, radius):
+        out[ok] |= flat[shifted]
+    return out
+
+
+def window_cells(
+    cells: NDArray[np.intp], shape: tuple[int, int], radius: int
+) -> NDArray[np.intp]:
+    """Flat cells within the square window of half width ``radius`` of any of ``cells``,
+    sorted, each once (the binary dilation of a few cells, at their cost)."""
+    parts = [shifted for _, shifted in _window_offsets(cells, shape, radius)]
+    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, dtype=np.intp)
+
+
 def grow_smooth(
     zmin: NDArray[np.float64],
     kept: NDArray[np.bool_],
@@ -194,12 +230,15 @@ def grow_smooth(
         return grown
     ground = kept.copy()
     radius = max(1, int(radius))
-    window = np.ones((2 * radius + 1, 2 * radius + 1), dtype=bool)
+    cand_flat, grown_flat, ground_flat = cand.ravel(), grown.ravel(), ground.ravel()
     # the front: candidates within the window of the ground, so that it crosses empty
-    # cells (sparse clouds: a cell of 1-2 m holds less than one point on average)
-    front = cand & ndimage.binary_dilation(ground, window)
+    # cells (sparse clouds: a cell of 1-2 m holds less than one point on average).
+    # Windows are looked up cell by cell, not dilated over the raster: the cost follows
+    # the candidates and each ring, not the raster (tiles on a diagonal, issue 17)
+    front = np.flatnonzero(cand)
+    front = front[window_any(ground, front, radius)]
     for _ in range(int(max_steps)):
-        at = np.flatnonzero(front)
+        at = front
         if at.size == 0:
             break
         height, grad, rms = window_planes(zmin, ground, at, radius)
@@ -210,18 +249,10 @@ def grow_smooth(
         ok = np.isfinite(misfit) & (misfit <= tolerance) & (rms <= tolerance)
         if not ok.any():
             break
-        grown.ravel()[at[ok]] = True
-        ground.ravel()[at[ok]] = True
+        grown_flat[at[ok]] = True
+        ground_flat[at[ok]] = True
         # the next ring: the candidates whose window gained support (the others would
-        # fail the same test again), dilated on the box of the new cells only
-        rr, cc = np.divmod(at[ok], kept.shape[1])
-        box = (
-            slice(max(0, rr.min() - 2 * radius), rr.max() + 2 * radius + 1),
-            slice(max(0, cc.min() - 2 * radius), cc.max() + 2 * radius + 1),
-        )
-        new = np.zeros(kept.shape, dtype=bool)
-        new.ravel()[at[ok]] = True
-        front = np.zeros(kept.shape, dtype=bool)
-        front[box] = ndimage.binary_dilation(new[box], window)
-        front &= cand & ~grown
+        # fail the same test again)
+        near = window_cells(at[ok], kept.shape, radius)
+        front = near[cand_flat[near] & ~grown_flat[near]]
     return grown

@@ -301,19 +301,54 @@ def mean_surface_cells(
     y: NDArray[np.float64],
     z: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """:func:`mean_surface` from the points' cells and separate coordinate arrays."""
-    size = grid.shape[0] * grid.shape[1]
+    """:func:`mean_surface` from the points' cells and separate coordinate arrays.
+
+    The centroid correction and the gradient are computed at the occupied cells only
+    (the same central and one-sided differences as :func:`numpy.gradient`): a mosaic of
+    tiles on a diagonal has a raster eight times its data, and the cost must follow the
+    data (issue 17).
+    """
+    rows, cols = grid.shape
+    size = rows * cols
     count = np.bincount(flat, minlength=size).astype(np.float64)
+    at = np.flatnonzero(count)
+    n_at = count[at]
     with np.errstate(invalid="ignore", divide="ignore"):
-        mz = (np.bincount(flat, weights=z, minlength=size) / count).reshape(grid.shape)
-        mx = (np.bincount(flat, weights=x, minlength=size) / count).reshape(grid.shape)
-        my = (np.bincount(flat, weights=y, minlength=size) / count).reshape(grid.shape)
-    rr, cc = np.indices(grid.shape)
+        mz = np.bincount(flat, weights=z, minlength=size) / count
+    mx = np.bincount(flat, weights=x, minlength=size)[at] / n_at
+    my = np.bincount(flat, weights=y, minlength=size)[at] / n_at
+    rr, cc = np.divmod(at, cols)
     dx = grid.x0_m + (cc + 0.5) * grid.cell_m - mx
     dy = grid.y0_m - (rr + 0.5) * grid.cell_m - my
-    gy, gx = gradient(mz, grid.cell_m)
-    shift = np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
-    return mz + shift
+    gx = _difference(mz, at, cc, cols, 1, grid.cell_m)
+    gy = -_difference(mz, at, rr, rows, cols, grid.cell_m)
+    with np.errstate(invalid="ignore"):
+        shift = np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
+    mz[at] += shift
+    return mz.reshape(grid.shape)
+
+
+def _difference(
+    flat_values: NDArray[np.float64],
+    at: NDArray[np.intp],
+    pos: NDArray[np.intp],
+    n: int,
+    stride: int,
+    cell_m: float,
+) -> NDArray[np.float64]:
+    """:func:`numpy.gradient` (first order at the ends) of a raster along one axis, at the
+    flat cells ``at`` only (``pos``: their index along the axis of ``n`` cells, ``stride``
+    apart in the flat raster)."""
+    if n < 2:
+        return np.zeros(len(at))
+    lo = np.where(pos > 0, at - stride, at)
+    hi = np.where(pos < n - 1, at + stride, at)
+    inner = (pos > 0) & (pos < n - 1)
+    diff = flat_values[hi] - flat_values[lo]
+    out = np.empty(len(at))
+    out[inner] = diff[inner] / (2.0 * cell_m)
+    out[~inner] = diff[~inner] / cell_m
+    return out
 
 
 #: Largest number of unknown cells solved exactly by one sparse LU (:func:`_solve_red_black`);
