@@ -174,3 +174,41 @@ def test_mean_surface_at_occupied_cells_is_the_raster_formula() -> None:
         expected = mz + np.nan_to_num(gx * dx + gy * dy, nan=0.0, posinf=0.0, neginf=0.0)
         got = mean_surface_cells(grid, flat, xy[:, 0], xy[:, 1], z)
         assert np.array_equal(got, expected, equal_nan=True)
+
+
+def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> None:
+    """The inpainting pyramid's block means (strided quarters) and its far cells (a
+    square dilation of the known cells) are the block reduction and the chessboard
+    distance map they replace, to the bit (cost per level: issue 17's diagonal tiles)."""
+    from scipy import ndimage
+
+    from pyheracles.groundfilters import surface
+
+    rng = np.random.default_rng(5)
+    for shape in ((301, 403), (1, 7), (6, 1), (9, 9)):
+        v = rng.normal(size=shape) * 100.0
+        v[rng.uniform(size=shape) < 0.4] = np.nan
+        rows, cols = shape
+        padded = np.full((rows + rows % 2, cols + cols % 2), np.nan)
+        padded[:rows, :cols] = v
+        blocks = padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2)
+        known = np.isfinite(blocks)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            expected = np.where(known.any(axis=(1, 3)),
+                                np.where(known, blocks, 0.0).sum(axis=(1, 3))
+                                / known.sum(axis=(1, 3)), np.nan)  # fmt: skip
+        assert np.array_equal(surface._halve(v), expected, equal_nan=True)
+    unknown = rng.uniform(size=(120, 90)) < 0.97
+    values = np.where(unknown, np.nan, 1.0)
+    d = ndimage.distance_transform_cdt(unknown, metric="chessboard")
+    far_expected = unknown & (d > surface.INPAINT_BAND_CELLS)
+    seen = {}
+    original = surface._solve_band_cg
+
+    def spy(vals, band):
+        seen["band"] = band.copy()
+        return original(vals, band)
+
+    monkeypatch.setattr(surface, "_solve_band_cg", spy)
+    surface.inpaint(values)
+    assert np.array_equal(seen["band"], unknown & ~far_expected)
