@@ -198,7 +198,7 @@ def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> Non
                                 np.where(known, blocks, 0.0).sum(axis=(1, 3))
                                 / known.sum(axis=(1, 3)), np.nan)  # fmt: skip
         assert np.array_equal(surface._halve(v), expected, equal_nan=True)
-    unknown = rng.uniform(size=(120, 90)) < 0.97
+    unknown = rng.uniform(size=(200, 150)) < 0.97  # more than EXACT_MAX_UNKNOWN
     values = np.where(unknown, np.nan, 1.0)
     d = ndimage.distance_transform_cdt(unknown, metric="chessboard")
     far_expected = unknown & (d > surface.INPAINT_BAND_CELLS)
