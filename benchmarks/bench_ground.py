@@ -55,6 +55,7 @@ from pyheracles.ground import (
     auto_csf_params,
     extract_ground,
     measure_scene,
+    pass_through_returns,
     refine_ground,
 )
 from pyheracles.groundfilters.csf import csf
@@ -639,12 +640,16 @@ def sweep_draw(seed: int) -> dict:
     water = (res.class_id == sim.scene.class_code("water")) & ~res.outlier
     scored = ~water
     tags = point_tags(sim, xyz)
+    # the echoes a LAS of the survey carries: "auto" uses them as `heracles ground` does
+    # (returns that are not the last of their pulse are never ground); the peers run on
+    # the coordinates alone, as PDAL's SMRF and the CSF package do by default
+    through = pass_through_returns(res.return_number, res.number_of_returns)
     methods: dict[str, dict] = {}
     causes: dict[str, dict] = {}
     for name in SWEEP_METHODS:
         t = time.perf_counter()
         try:
-            result = extract_ground(xyz, name)
+            result = extract_ground(xyz, name, pass_through=through if name == "auto" else None)
         except Exception as exc:  # the benchmark records, it does not crash
             methods[name] = {"error": f"{type(exc).__name__}: {exc}"}
             continue

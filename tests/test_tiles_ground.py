@@ -11,7 +11,7 @@ from pyproj import CRS
 
 from pyheracles.cli import main
 from pyheracles.errors import InputError
-from pyheracles.ground import aligned_grid, extract_ground
+from pyheracles.ground import aligned_grid, extract_ground, pass_through_of
 from pyheracles.io import read_cloud
 from pyheracles.tiles import read_catalog, run_ground_tiles, split_las, write_vrt
 
@@ -87,7 +87,8 @@ def test_ground_tiles_match_the_single_run_and_mosaic_is_seamless(cut: dict) -> 
     import rasterio
 
     cloud = read_cloud(cut["whole"])
-    single = extract_ground(cloud.xyz, "auto", max_object_size_m=20.0, origin_m=cloud.offset[:2])
+    single = extract_ground(cloud.xyz, "auto", max_object_size_m=20.0, origin_m=cloud.offset[:2],
+                            pass_through=pass_through_of(cloud.attributes))  # fmt: skip
     out = cut["root"] / "out"
     res = run_ground_tiles(cut["root"] / "in", out, max_object_size_m=20.0)
     assert set(res.status.values()) == {"done"}

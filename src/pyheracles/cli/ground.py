@@ -153,7 +153,7 @@ def register(app: typer.Typer) -> None:
 
         from pyheracles.cli.common import console, output_dir, print_run_warnings
         from pyheracles.errors import InputError
-        from pyheracles.ground import extract_ground, height_above_ground
+        from pyheracles.ground import extract_ground, height_above_ground, pass_through_of
         from pyheracles.io import read_cloud, write_cloud
         from pyheracles.progress import enabled, stage
         from pyheracles.provenance import write_run_json
@@ -183,6 +183,7 @@ def register(app: typer.Typer) -> None:
                 result = extract_ground(
                     cloud.xyz, method, max_object_size_m=max_object_size_m,
                     dtm_cell_m=dtm_cell_m, source=str(cloud_path),
+                    pass_through=pass_through_of(cloud.attributes),
                 )  # fmt: skip
             timings["ground"] = time.perf_counter() - t
 

@@ -38,7 +38,7 @@ def ground_mask(
                 hint="use --ground auto (or csf / smrf) to extract the ground",
             )
         return np.asarray(cloud.attributes["classification"]) == 2
-    from pyheracles.ground import extract_ground
+    from pyheracles.ground import extract_ground, pass_through_of
 
     result = extract_ground(
         cloud.xyz,
@@ -46,6 +46,7 @@ def ground_mask(
         max_object_size_m=max_object_size_m,
         rng=params.seed,
         origin_m=cloud.offset[:2],
+        pass_through=pass_through_of(cloud.attributes),
     )
     return np.asarray(result.mask, dtype=bool)
 

@@ -282,12 +282,9 @@ def segment_complex(
 
 def _pass_through(cloud: PointCloud) -> NDArray[np.bool_] | None:
     """Points the pulse went on beyond (not its last return), or ``None`` without echoes."""
-    attrs = cloud.attributes
-    if "return_number" not in attrs or "number_of_returns" not in attrs:
-        return None
-    rn = np.asarray(attrs["return_number"])
-    # return number 0 is invalid in LAS: such a file says nothing about its pulses
-    return (rn >= 1) & (rn < np.asarray(attrs["number_of_returns"]))
+    from pyheracles.ground import pass_through_of
+
+    return pass_through_of(cloud.attributes)
 
 
 _RESERVED = {

@@ -80,7 +80,7 @@ def ground_tile(job: GroundJob) -> dict[str, Any]:
     """Ground filter of one tile with its buffer; writes ``tiles/<tile>/`` atomically."""
     from pyheracles.cli.ground import write_dtm_geotiff
     from pyheracles.cloud import PointCloud
-    from pyheracles.ground import extract_ground, height_above_ground
+    from pyheracles.ground import extract_ground, height_above_ground, pass_through_of
     from pyheracles.io import write_cloud
     from pyheracles.provenance import write_run_json
 
@@ -92,6 +92,10 @@ def ground_tile(job: GroundJob) -> dict[str, Any]:
     warnings: list[str] = []
     buffers = neighbour_buffers(job.neighbours, job.box, job.outdir / ".work", warnings)
     parts = [own.world_xyz(), *(b[1] for b in buffers)]
+    # the echoes of the tile and its buffers (returns that are not their pulse's last are
+    # no ground): when every part has them, as the single-cloud run does
+    echoes = [pass_through_of(own.attributes), *(pass_through_of(b[3]) for b in buffers)]
+    through = None if any(e is None for e in echoes) else np.concatenate(echoes)
     del buffers
     n = len(own)
     cloud = PointCloud.from_world(np.concatenate(parts), source=str(job.tile.path))
@@ -99,6 +103,7 @@ def ground_tile(job: GroundJob) -> dict[str, Any]:
     result = extract_ground(
         cloud.xyz, job.method, job.params, max_object_size_m=job.max_object_size_m,
         dtm_cell_m=job.dtm_cell_m, source=str(job.tile.path), origin_m=cloud.offset[:2],
+        pass_through=through,
     )  # fmt: skip
     mask = result.mask[:n]
     old = own.attributes.get("classification")

@@ -199,7 +199,7 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
     """Ground and step 1 on one tile with its buffer; the owned objects saved to ``work``."""
     from pyheracles.cloud import PointCloud
     from pyheracles.complex import raised_ground_points, segment_complex
-    from pyheracles.ground import extract_ground
+    from pyheracles.ground import extract_ground, pass_through_of
 
     t0 = time.perf_counter()
     target = job.work / f"{job.tile.name}.pkl"
@@ -228,7 +228,7 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
         ground = extract_ground(
             cloud.xyz, params.ground, job.ground_params if params.ground == "auto" else None,
             max_object_size_m=job.max_object_size_m, source=str(job.tile.path),
-            origin_m=cloud.offset[:2],
+            origin_m=cloud.offset[:2], pass_through=pass_through_of(cloud.attributes),
         ).mask  # fmt: skip
         near = {k: v for k, v in job.layers.items() if len(v)}
         if params.raised_ground_m is not None and ground.any() and near:
