@@ -781,7 +781,8 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
     # tie points from the openings verified by their raw points when there are enough:
     # an opening verified by its outline alone would carry that outline's in-plane fit
     # (a derived, partial outline: the reason for this refinement) into the similarity
-    # (church draws 7 and 31: 3.6 -> 6.8 mm and 5.8 -> 8.1 mm off with them)
+    # (church draws 7 and 31, refined poses 3.6 and 5.8 mm off at the panes: the
+    # similarity ended 6.8 and 8.1 mm off with them, 4.5 and 6.5 mm without)
     ties = raw if raw.sum() >= p.min_openings else good
     return n_verified, int(good.sum()), T, pairs[ties], res[ties], loc[ties], bad, extras
 
