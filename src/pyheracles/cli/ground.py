@@ -180,11 +180,16 @@ def register(app: typer.Typer) -> None:
 
             t = time.perf_counter()
             with stage(f"ground filter ({method})"):
+                through = pass_through_of(cloud.attributes)
                 result = extract_ground(
                     cloud.xyz, method, max_object_size_m=max_object_size_m,
-                    dtm_cell_m=dtm_cell_m, source=str(cloud_path),
-                    pass_through=pass_through_of(cloud.attributes),
+                    dtm_cell_m=dtm_cell_m, source=str(cloud_path), pass_through=through,
                 )  # fmt: skip
+            if through is not None and through.any() and method != "none":
+                notes.append(
+                    f"{int(through.sum())} returns that are not the last of their pulse were "
+                    "kept out of the filter (ground only where they lie on the terrain model)"
+                )
             timings["ground"] = time.perf_counter() - t
 
             t = time.perf_counter()
