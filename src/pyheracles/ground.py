@@ -90,10 +90,11 @@ __all__ = [
 ]
 
 GROUND_METHODS = ("auto", "csf", "smrf", "none")
+"""Values accepted by ``extract_ground(method=...)``."""
+
 #: A pass-through return this close to the terrain model (either side) is ground: the
 #: refinement's smallest noise threshold (:attr:`RefineParams.min_threshold_m`), metres.
 PASS_THROUGH_ON_GROUND_M = RefineParams().min_threshold_m
-"""Values accepted by ``extract_ground(method=...)``."""
 
 _CEILING_HEIGHT_M = 2.0
 _CEILING_COVER = 0.97
@@ -382,9 +383,9 @@ def extract_ground(
         The pulse went on below such a point: it is ground only where it lies on the
         terrain (within :data:`PASS_THROUGH_ON_GROUND_M` of the DTM: a pulse split on a
         curb or a step).  They are kept out of the filter (its rasters, measured spacing
-        and surfaces come from the last and only returns).  Low vegetation is the first error of the
-        filter on sparse surveys (27 of 30 terrain-family draws); 43 % of its returns
-        pass through, none of the ground's.
+        and surfaces come from the last and only returns).  Low vegetation is the first
+        error of the filter on sparse surveys (27 of 30 terrain-family draws); 43 % of
+        its returns pass through, none of the ground's.
 
     Returns
     -------
@@ -402,7 +403,7 @@ def extract_ground(
     del rng  # deterministic filters
     if pass_through is not None:
         through = np.asarray(pass_through, dtype=bool).ravel()
-        pts_all = np.asarray(xyz, dtype=np.float64)
+        pts_all = _check_xyz(xyz)
         if through.shape != (len(pts_all),):
             raise InputError(
                 f"pass_through has {through.size} values for {len(pts_all)} points",
