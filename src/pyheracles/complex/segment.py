@@ -20,6 +20,7 @@ from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mas
 from pyheracles.complex.params import ComplexParams, ComplexResult, resolve_params
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import point_spacing
+from pyheracles.ground import pass_through_of
 from pyheracles.io.vector import align_crs, validate_polygons
 from pyheracles.labels import Segmentation, merge_rows
 
@@ -253,7 +254,7 @@ def segment_complex(
             if "number_of_returns" in cloud.attributes
             else None
         ),
-        pass_through=_pass_through(cloud),
+        pass_through=pass_through_of(cloud.attributes),
         instance=np.zeros(n, dtype=np.int32),
         class_id=np.zeros(n, dtype=np.uint8),
     )
@@ -278,13 +279,6 @@ def segment_complex(
     )  # fmt: skip
     seg.check_balance()
     return ComplexResult(seg, rp, spacing, order, timings)
-
-
-def _pass_through(cloud: PointCloud) -> NDArray[np.bool_] | None:
-    """Points the pulse went on beyond (not its last return), or ``None`` without echoes."""
-    from pyheracles.ground import pass_through_of
-
-    return pass_through_of(cloud.attributes)
 
 
 _RESERVED = {
