@@ -270,32 +270,38 @@ def minimum_spread(
     *,
     opposite_sides: bool = True,
     trees: list[cKDTree | None] | None = None,
+    directions: Array | None = None,
 ) -> float:
     """Spread of the minima from starts displaced from ``T0`` about the solution ``T``.
 
-    The same steps as :func:`refine_on_recesses` from six starts (``T0`` moved by
-    ``restart_m`` along each axis, both ways); returns the largest RMS distance over
-    the matched pane centres between their minima and ``T`` (the caller may compute
-    it only for a solution it would otherwise take: six refinements).
+    The same steps as :func:`refine_on_recesses` from starts ``T0`` moved by
+    ``restart_m`` both ways along each of ``directions`` (unit vectors, rows; default
+    the three axes: six starts); returns the largest RMS distance over the matched
+    pane centres between their minima and ``T`` (the caller may compute it only for a
+    solution it would otherwise take: two refinements per direction).
     """
     p = params or PaneICPParams()
     trees = trees if trees is not None else recess_trees(target)
     src = [_subsample(source[i], p.max_points) for i in pairs[:, 0]]
     sgn = -1.0 if opposite_sides else 1.0
-    return _basin(source, target, pairs, T0, T, depth_weight, src, trees, p, sgn)
+    return _basin(source, target, pairs, T0, T, depth_weight, src, trees, p, sgn, directions)
 
 
-def _basin(source, target, pairs, T0, T, depth_weight, src, trees, p: PaneICPParams, sgn):
-    # the same minimum from starts displaced by ``restart_m`` along each axis: a pose
-    # that reveals leave free, or a splayed reveal pulling a start aside, converges
+def _basin(
+    source, target, pairs, T0, T, depth_weight, src, trees, p: PaneICPParams, sgn,
+    directions: Array | None = None,
+):  # fmt: skip
+    # the same minimum from starts displaced by ``restart_m`` along each direction: a
+    # pose that reveals leave free, or a splayed reveal pulling a start aside, converges
     # elsewhere and shows as a spread of the minima
     centres = np.array([source[i].centre for i in pairs[:, 0]])
     ref = centres @ T[:3, :3].T + T[:3, 3]
     basin = 0.0
-    for axis in range(3 if p.restart_m > 0 else 0):  # six restarts
+    axes = np.eye(3) if directions is None else np.atleast_2d(directions)
+    for axis in axes if p.restart_m > 0 else ():  # two restarts per direction
         for sign in (-1.0, 1.0):
             Ts = np.asarray(T0, float).copy()
-            Ts[axis, 3] += sign * p.restart_m
+            Ts[:3, 3] += sign * p.restart_m * axis
             Tr, _, _ = _iterate(source, target, pairs, Ts, depth_weight, src, trees, p, sgn)
             d = centres @ Tr[:3, :3].T + Tr[:3, 3] - ref
             basin = max(basin, float(np.sqrt(np.mean(np.sum(d**2, axis=1)))))

@@ -791,29 +791,20 @@ def _held_by_reveals(S, Tg, pairs, T, direction: Array, p: MatchParams, trees) -
     """Whether the raw recess points alone bring the pose back along ``direction``.
 
     The recess ICP without pane-depth rows is started from ``T`` moved by the recess
-    ICP's ``restart_m`` along ``direction`` (one way, then the other); the pose is held
-    when both minima lie within ``max_basin_m`` of ``T`` (RMS over the matched pane
+    ICP's ``restart_m`` along ``direction`` (one way, then the other;
+    :func:`~pyheracles.registration.pane_icp.minimum_spread`); the pose is held when
+    both minima lie within ``max_basin_m`` of ``T`` (RMS over the matched pane
     centres).  A direction that no reveal constrains leaves a start where it is.
     """
     pi = p.recess_icp
     assert pi is not None
     if pi.restart_m <= 0:
         return False
-    fast = replace(pi, restart_m=0.0)
-    centres = np.array([S[i].centre for i in pairs[:, 0]])
-    ref = centres @ T[:3, :3].T + T[:3, 3]
-    for sign in (-1.0, 1.0):
-        Ts = T.copy()
-        Ts[:3, 3] += sign * pi.restart_m * direction
-        r = refine_on_recesses(
-            S, Tg, pairs, Ts, np.zeros(len(pairs)), fast, opposite_sides=p.opposite_sides,
-            trees=trees,
-        )
-        Tr = r.T_target_source
-        d = centres @ Tr[:3, :3].T + Tr[:3, 3] - ref
-        if np.sqrt(np.mean(np.sum(d**2, axis=1))) > p.max_basin_m:
-            return False
-    return True
+    spread = minimum_spread(
+        S, Tg, pairs, T, T, np.zeros(len(pairs)), pi, opposite_sides=p.opposite_sides,
+        trees=trees, directions=direction,
+    )  # fmt: skip
+    return spread <= p.max_basin_m
 
 
 def _same_pose(
