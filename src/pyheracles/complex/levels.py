@@ -26,8 +26,14 @@ __all__ = [
 
 
 def ground_mask(
-    cloud: PointCloud, params: ComplexParams, max_object_size_m: float
+    cloud: PointCloud,
+    params: ComplexParams,
+    max_object_size_m: float,
+    pass_through: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
+    """The ground of step 1: the cloud's ASPRS class 2 (``ground="class"``), none, or a
+    filter's (``pass_through``: the returns that are not their pulse's last, see
+    :func:`pyheracles.ground.extract_ground`)."""
     if params.ground == "none":
         return np.zeros(len(cloud), dtype=bool)
     if params.ground == "class":
@@ -38,7 +44,7 @@ def ground_mask(
                 hint="use --ground auto (or csf / smrf) to extract the ground",
             )
         return np.asarray(cloud.attributes["classification"]) == 2
-    from pyheracles.ground import extract_ground, pass_through_of
+    from pyheracles.ground import extract_ground
 
     result = extract_ground(
         cloud.xyz,
@@ -46,7 +52,7 @@ def ground_mask(
         max_object_size_m=max_object_size_m,
         rng=params.seed,
         origin_m=cloud.offset[:2],
-        pass_through=pass_through_of(cloud.attributes),
+        pass_through=pass_through,
     )
     return np.asarray(result.mask, dtype=bool)
 

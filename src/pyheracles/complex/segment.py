@@ -215,7 +215,8 @@ def segment_complex(
     sizes = [
         float(np.sqrt(shapely.area(g.geometry.to_numpy())).max()) for g in layers.values() if len(g)
     ]
-    ground = ground_mask(cloud, rp, max(sizes) if sizes else 20.0)
+    through = pass_through_of(cloud.attributes)  # the echoes, for the ground and foliage
+    ground = ground_mask(cloud, rp, max(sizes) if sizes else 20.0, through)
     if rp.raised_ground_m is not None and rp.ground != "class" and ground.any():
         # platforms, plinths, steps and low walls are the features', not terrain
         ground = ground & ~raised_ground(layers, xyz, ground, rp, spacing, cloud)
@@ -254,7 +255,7 @@ def segment_complex(
             if "number_of_returns" in cloud.attributes
             else None
         ),
-        pass_through=pass_through_of(cloud.attributes),
+        pass_through=through,
         instance=np.zeros(n, dtype=np.int32),
         class_id=np.zeros(n, dtype=np.uint8),
     )
