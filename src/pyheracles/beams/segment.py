@@ -43,6 +43,11 @@ __all__ = [
 ]
 
 
+#: Share of the section across a hidden face whose strip along that face's edges
+#: does not lengthen a beam (the floor beside a timber lying on it).
+HIDDEN_EDGE_SHARE = 0.25
+
+
 def assign_to_cuboids(
     xyz: NDArray[np.float64],
     beams: list[BeamCuboid],
@@ -155,8 +160,12 @@ def extend_once(
     shares = np.bincount(face[inside], minlength=4) / max(int(inside.sum()), 1)
     on &= shares[face] >= 0.1
     for f in np.flatnonzero(shares < 0.1):  # nor along the edges of a hidden face
+        # a strip a quarter of the section wide: the hidden face's level is
+        # estimated (the floor under a lying timber may sit a centimetre inside it)
         sign, k = (1.0 if f % 2 else -1.0), 1 + f // 2
-        on &= np.abs(local[:, k] - sign * 0.5 * [cub.width, cub.height][k - 1]) > tol
+        size = [cub.width, cub.height][k - 1]
+        strip = max(tol, HIDDEN_EDGE_SHARE * size)
+        on &= np.abs(local[:, k] - sign * 0.5 * size) > strip
     step = max(0.5 * max_gap, 10 * spacing)
     sl = max(0.05, 5 * spacing)
     ends = []
