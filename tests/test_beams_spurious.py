@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyheracles.beams.cuboids import join_pieces
 from pyheracles.beams.deflection import BoxIndex
 from pyheracles.beams.model import BeamCuboid
 from pyheracles.beams.segment import extend_along_axis
@@ -74,3 +75,42 @@ def test_a_face_going_on_past_the_end_still_lengthens_the_beam():
     free = np.ones(len(xyz), dtype=bool)
     out = extend_along_axis(xyz, free, cub, 0.01, 1.0, 0.008, index=BoxIndex(xyz))
     assert abs(out.length - 3.0) < 0.05
+
+
+def _piece(t0, t1, w, h, faces, axis=(0.0, -0.7, 0.71), lateral=(0.0, 0.0)):
+    """A cuboid along ``axis`` from ``t0`` to ``t1`` (metres), off the line by ``lateral``."""
+    a = np.asarray(axis) / np.linalg.norm(axis)
+    u = X.copy()
+    v = np.cross(a, u)
+    centre = a * 0.5 * (t0 + t1) + lateral[0] * u + lateral[1] * v
+    return BeamCuboid(
+        centre=centre,
+        axes=np.column_stack([a, u, v]),
+        length=t1 - t0,
+        width=w,
+        height=h,
+        rms=0.002,
+        n_facets=1,
+        faces_seen=faces,
+    )
+
+
+def test_pieces_of_one_member_are_joined_once_lengthened():
+    # roof seed 29: common rafters under the boarding came out in two pieces each
+    # (one seen on one face, the other on one or two), 0.4-0.8 m apart once
+    # lengthened, 2 m apart as fitted; a common rafter 0.6 m to the side stays
+    cubs = [
+        _piece(-3.09, 1.07, 0.100, 0.182, 1),  # member 37
+        _piece(1.50, 3.38, 0.099, 0.182, 1),
+        _piece(-0.41, 3.44, 0.097, 0.194, 2, lateral=(0.6, 0.0)),  # member 23
+        _piece(-3.04, -1.24, 0.095, 0.195, 1, lateral=(0.6, 0.005)),
+        _piece(-3.0, 3.4, 0.098, 0.180, 2, lateral=(1.2, 0.0)),  # a whole one
+    ]
+    out, new_id = join_pieces(cubs, np.cos(np.radians(5.0)), 1.0)
+    assert len(out) == 3
+    assert new_id[1] == new_id[2] and new_id[3] == new_id[4]
+    assert len(set(new_id[1:].tolist())) == 3
+    first = out[new_id[1] - 1]
+    assert abs(first.length - 6.47) < 0.01
+    second = out[new_id[3] - 1]
+    assert second.faces_seen == 2 and abs(second.length - 6.48) < 0.01

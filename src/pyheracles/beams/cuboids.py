@@ -20,6 +20,7 @@ __all__ = [
     "face_points",
     "fit_beam_cuboid",
     "fit_one_face_cuboid",
+    "join_pieces",
     "merge_and_absorb",
     "section_overlap",
     "sparse_face",
@@ -275,6 +276,60 @@ def collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> b
     big_sizes = np.array([big.width, big.height])
     one_equal = np.any(np.abs(sizes - big_sizes) <= np.maximum(0.1 * big_sizes, 0.01))
     return bool(inside >= 0.8 and one_equal)
+
+
+def join_pieces(
+    beams: list[BeamCuboid], cos_par: float, max_gap: float
+) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
+    """Join the cuboids that are pieces of one beam along their common axis.
+
+    The pieces of a member cut by a crossing member or a shadow are merged
+    before their cuboids are lengthened (:func:`merge_and_absorb`), but a
+    piece's ends are only known once it has been lengthened over the faces
+    seen past them: two pieces 2 m apart as fitted may come out 0.4 m apart.
+    Cuboids that are :func:`collinear` (parallel, the same section on one
+    line, at most ``max_gap`` apart) are joined, repeatedly: the joined
+    cuboid keeps the section and axis of the piece seen on more faces (then
+    the longer one) and spans both pieces along that axis.
+
+    Returns
+    -------
+    beams
+        The joined cuboids.
+    new_id
+        ``(len(beams) + 1,)`` new 1-based id of each old id (index 0 maps to 0).
+    """
+    out = list(beams)
+    ids = list(range(len(beams)))  # current cuboid of each input cuboid
+    joined = True
+    while joined:
+        joined = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                if not collinear(out[i], out[j], cos_par, max_gap):
+                    continue
+                a, b = out[i], out[j]
+                key = lambda c: (c.faces_seen, c.height_measured, c.length)  # noqa: E731
+                main = a if key(a) >= key(b) else b
+                ends = np.array(
+                    [c.centre + s * 0.5 * c.length * c.axis for c in (a, b) for s in (-1.0, 1.0)]
+                )
+                t = (ends - main.centre) @ main.axis
+                lo, hi = float(t.min()), float(t.max())
+                out[i] = replace(
+                    main,
+                    centre=main.centre + main.axis * 0.5 * (lo + hi),
+                    length=hi - lo,
+                    n_facets=a.n_facets + b.n_facets,
+                )
+                del out[j]
+                ids = [i if k == j else (k - 1 if k > j else k) for k in ids]
+                joined = True
+                break
+            if joined:
+                break
+    new_id = np.concatenate([[0], np.asarray(ids, dtype=np.int32) + 1]).astype(np.int32)
+    return out, new_id
 
 
 def merge_and_absorb(

@@ -14,6 +14,7 @@ from pyheracles.beams.cuboids import (
     collinear,
     fit_beam_cuboid,
     fit_one_face_cuboid,
+    join_pieces,
     merge_and_absorb,
 )
 from pyheracles.beams.deflection import BoxIndex
@@ -498,6 +499,9 @@ def segment_beams(
         )
         for i, c in enumerate(cuboids)
     ]
+    # pieces of one member whose lengthened ends now meet
+    cuboids, new_id = join_pieces(cuboids, np.cos(np.radians(p.parallel_deg)), p.max_gap_m)
+    facet_beam = new_id[facet_beam]
     # timber stored on the floor: it and what it touches lie on a surface going on around
     contacts = cuboid_contacts(cuboids, max(contact, 2.0 * tol))
     loose = resting_loose(tree, cuboids, contacts)
