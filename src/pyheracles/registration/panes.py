@@ -12,7 +12,11 @@ glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
    RANSAC budget spent on ground and roof).
 2. **Openings** - each face rasterised with cells sized from its own point spacing;
    empty regions enclosed by the face (not touching its border: doors reaching the
-   floor are excluded) are candidate openings.
+   floor are excluded), and regions running into a part of the face nobody scanned
+   that what lies behind the face fills (a clerestory window over an aisle roof), are
+   candidate openings; each is rastered again at its own neighbourhood's spacing
+   where a window was scanned closer than its wall
+   (:mod:`~pyheracles.registration.face_holes`).
 3. **Recess** - the full-resolution points inside the opening's prism: an opening
    has reveal points behind the face (shadows of furniture have none).  A filled,
    dense, planar patch at depth is a door leaf or a panel, not glass (glass
@@ -24,7 +28,9 @@ glass from outside, the inner (often splayed) reveal from inside.  Per cloud:
    (a straight reveal projects, a splayed one is followed down to the glass); any
    outline shape (rectangular, round-headed, pointed, leaded).  The opening's size and
    centre span the outline and the glass points together (a reveal hidden from the
-   viewer leaves the outline partial, the glass still fills the opening).
+   viewer leaves the outline partial, the glass still fills the opening), and a side
+   that neither shows (a sill hidden in a deep recess seen from below) is taken from
+   the hole in the wall face.
 
 Assumptions (documented limits): the cloud is metric and roughly levelled (``up``
 within ``max_level_deg`` of the vertical, walls of two directions at least to refine
@@ -41,6 +47,14 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from pyheracles.geometry.neighbours import estimate_normals
+from pyheracles.registration.face_holes import (
+    enclosed_holes,
+    face_spacing,
+    local_holes,
+    open_holes,
+    raster_cell,
+    unseen_sides_from_hole,
+)
 
 __all__ = [
     "Opening",
@@ -123,6 +137,12 @@ class PaneParams:
         face plane, and at least ``min_recess_depth_m`` behind it: a photogrammetric
         face scatters 1-2 cm, and its points behind the plane passed for glass
         (a depth of 4 cm for a 10 cm reveal, widths 0.25 m too wide).
+    min_side_seen
+        A side of an opening (sill, head, jamb) counts as seen when reveal points facing
+        out of that side span at least this share of the opening's extent along it;
+        an unseen side is taken from the face's hole (:func:`unseen_sides_from_hole`).
+        A semicircular head spans about 0.7 of the width within 45 deg of the top, a
+        pointed one less; a sill hidden behind a deep reveal, none.
     """
 
     search_voxel_m: float = 0.08
@@ -155,6 +175,7 @@ class PaneParams:
     max_recess_keep: int = 2500
     min_recess_depth_m: float = 0.015
     face_noise_factor: float = 3.0
+    min_side_seen: float = 0.25
 
 
 @dataclass(frozen=True, eq=False)
@@ -186,6 +207,10 @@ class Opening:
         ``(R, 3)`` points of the recess that are not glass (reveals from the face to the
         glass, the other side's reveals seen through it) and their unit normals (sign
         free): the raw surfaces of the restricted ICP (empty when not kept).
+    sides_from_face
+        Sides of the extent (``"left"``, ``"right"``, ``"bottom"``, ``"top"``) that no
+        reveal showed, taken from the hole in the wall face instead
+        (:func:`unseen_sides_from_hole`); ``width``, ``height`` and ``centre`` include them.
     """
 
     centre: Array
@@ -201,6 +226,7 @@ class Opening:
     face: int
     recess: Array = field(default_factory=lambda: np.zeros((0, 3)))
     recess_normal: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    sides_from_face: tuple[str, ...] = ()
 
 
 def voxel_centroids(xyz: Array, voxel_m: float) -> Array:
@@ -322,21 +348,6 @@ def _plane_axes(n: Array, up: Array) -> tuple[Array, Array]:
     h = np.cross(up, n)
     h /= np.linalg.norm(h)
     return h, np.cross(n, h)
-
-
-def _holes(uv: Array, cell: float, p: PaneParams) -> tuple[NDArray, Array, int]:
-    """Labels of the enclosed empty regions of a face raster, its origin and the count."""
-    lo = uv.min(axis=0) - cell
-    ij = np.floor((uv - lo) / cell).astype(int)
-    shape = ij.max(axis=0) + 2
-    occ = np.zeros(shape, bool)
-    occ[ij[:, 0], ij[:, 1]] = True
-    occ = ndimage.binary_closing(occ, structure=np.ones((3, 3)), border_value=0) | occ
-    empty = ~occ
-    lab, n = ndimage.label(empty)
-    border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
-    lab[np.isin(lab, border)] = 0
-    return lab, lo, n
 
 
 def recess_floor(face_depth: Array, p: PaneParams) -> float:
@@ -561,15 +572,29 @@ def _opening(
         glo_v, ghi_v = np.percentile(gv, [1, 99])
         lo_u, hi_u = min(lo_u, glo_u), max(hi_u, ghi_u)
         lo_v, hi_v = min(lo_v, glo_v), max(hi_v, ghi_v)
-    w, hgt = hi_u - lo_u, hi_v - lo_v
-    if w < p.min_width_m or hgt < p.min_height_m:
-        return None
     ip = nn[good] - np.outer(nn[good] @ e, e)
     ip /= np.maximum(np.linalg.norm(ip, axis=1, keepdims=True), 1e-12)
     cen2 = np.array([0.5 * (lo_u + hi_u), 0.5 * (lo_v + hi_v)])
     rel = np.column_stack([ou, ov]) - cen2
     flip = (ip @ h) * rel[:, 0] + (ip @ v) * rel[:, 1] < 0
     ip[flip] *= -1  # out of the opening
+    # a side of the outline hidden from the viewer (a sill seen from below through a
+    # deep reveal) leaves the extent short by decimetres: that side is taken from the
+    # face's hole, less the splay measured on the sides that are seen
+    hole = (u0, u1, v0, v1)
+    extent = unseen_sides_from_hole(
+        np.column_stack([ou, ov]),
+        np.column_stack([ip @ h, ip @ v]),
+        (lo_u, hi_u, lo_v, hi_v),
+        hole,
+        cell,
+        p.min_side_seen,
+    )
+    lo_u, hi_u, lo_v, hi_v = extent.extent
+    w, hgt = hi_u - lo_u, hi_v - lo_v
+    if w < p.min_width_m or hgt < p.min_height_m:
+        return None
+    cen2 = np.array([0.5 * (lo_u + hi_u), 0.5 * (lo_v + hi_v)])
     centre = (d + side * mid) * n + cen2[0] * h + cen2[1] * v
     keep = np.flatnonzero(~pane_like)
     if len(keep) > p.max_recess_keep:  # regular thinning
@@ -588,6 +613,7 @@ def _opening(
         face=face_id,
         recess=pts[keep],
         recess_normal=nrm[keep],
+        sides_from_face=extent.from_face,
     )
 
 
@@ -632,28 +658,32 @@ def detect_openings(
         if len(fpts) < p.face_min_points:
             continue
         # the face's own point spacing (full resolution) sizes the raster cells
-        pick = fpts[:: max(1, len(fpts) // 300)]
-        _, nearest = tree.query(pick, k=1)
-        dist, _ = tree.query(xyz[nearest], k=2)
-        spacing = float(np.median(dist[:, 1]))
-        cell = float(
-            np.clip(p.cell_spacings * max(spacing, p.voxel_m / 2), p.min_cell_m, p.max_cell_m)
-        )
+        spacing = face_spacing(xyz, tree, fpts)
+        cell = raster_cell(spacing, p)
         uv = np.column_stack([fpts @ h, fpts @ v])
         # raster of the face at voxel resolution (a cell holds a voxel where it has points)
-        lab, lo, nlab = _holes(uv, cell, p)
+        lab, lo, nlab = enclosed_holes(uv, cell, p)
         if nlab == 0:
             continue
         face_density = 1.0 / max(spacing, 1e-4) ** 2  # points per square metre
-        objs = ndimage.find_objects(lab)
-        for k, sl in enumerate(objs, start=1):  # candidate holes of this face
+        masks = []
+        for k, sl in enumerate(ndimage.find_objects(lab), start=1):  # enclosed holes
             if sl is None:
                 continue
             mask = np.zeros(lab.shape, bool)
             mask[sl] = lab[sl] == k
+            masks.append(mask)
+        depth = vox @ n - d
+        rec = (np.abs(depth) > p.face_band_m) & (np.abs(depth) < p.max_recess_m)
+        behind = [vox[rec & (sgn * depth > 0)] for sgn in (1.0, -1.0)]
+        masks += open_holes(uv, cell, lab, [np.column_stack([q @ h, q @ v]) for q in behind], p)
+        for mask in masks:
             if mask.sum() * cell * cell < p.min_width_m * p.min_height_m * 0.5:
                 continue
-            op = _opening(xyz, tree, n, d, h, v, mask, lo, cell, face_density, fi, p)
-            if op is not None:
-                out.append(op)
+            for m2, lo2, cell2, dens2 in local_holes(
+                mask, lo, cell, face_density, uv, fpts, xyz, tree, p
+            ):
+                op = _opening(xyz, tree, n, d, h, v, m2, lo2, cell2, dens2, fi, p)
+                if op is not None:
+                    out.append(op)
     return out
