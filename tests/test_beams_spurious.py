@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from pyheracles.beams import segment_beams
 from pyheracles.beams.cuboids import join_pieces
 from pyheracles.beams.deflection import BoxIndex
-from pyheracles.beams.model import BeamCuboid
+from pyheracles.beams.frame import FrameParams, analyse_frame
+from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult
 from pyheracles.beams.segment import extend_along_axis
+from pyheracles.synthetic.families.roof_frame import member_between
 
 NOISE = 0.002
 X, Y, Z = np.eye(3)
@@ -114,3 +117,89 @@ def test_pieces_of_one_member_are_joined_once_lengthened():
     assert abs(first.length - 6.47) < 0.01
     second = out[new_id[3] - 1]
     assert second.faces_seen == 2 and abs(second.length - 6.48) < 0.01
+
+
+def _box(a, b, w, h, up=Z) -> BeamCuboid:
+    m = member_between("m", "x", a, b, w, h, np.asarray(up, float))
+    return BeamCuboid(
+        centre=m.centre,
+        axes=np.column_stack([m.axis, m.side, m.up]),
+        length=m.length,
+        width=m.width,
+        height=m.height,
+        rms=0.0,
+        n_facets=2,
+        faces_seen=2,
+    )
+
+
+def _truss_on_the_floor():
+    """Two king-post trusses with ties on the floor and a purlin; timber on the floor.
+
+    Roof seeds 12, 26 and 29: timbers stored on the floor next to a tie beam
+    (or to a strip of wall head or floor taken for a beam) were joined to it
+    by the joint search's contact and end reach, and so counted as members.
+    """
+    beams = []
+    for x in (0.0, 3.0):
+        beams += [
+            _box([x, -3, 0.1], [x, 3, 0.1], 0.2, 0.2),  # tie beam on the floor
+            _box([x, 0, 0.2], [x, 0, 2.5], 0.18, 0.18, [1, 0, 0]),  # king post
+            _box([x, -2.8, 0.25], [x, 0, 2.6], 0.16, 0.18, np.cross([1, 0, 0], [0, 2.8, 2.35])),
+            _box([x, 2.8, 0.25], [x, 0, 2.6], 0.16, 0.18, np.cross([1, 0, 0], [0, -2.8, 2.35])),
+        ]
+    beams.append(_box([-0.3, 0, 2.55], [3.3, 0, 2.55], 0.15, 0.15))  # ridge on the posts
+    # stored timber: one against the first tie (T), a stack of two lying apart
+    beams += [
+        _box([0.15, 1.0, 0.06], [2.2, 1.0, 0.06], 0.12, 0.12),
+        _box([1.0, -2.0, 0.05], [2.5, -2.0, 0.05], 0.2, 0.1),
+        _box([1.0, -1.8, 0.15], [2.5, -1.8, 0.15], 0.2, 0.1),
+    ]
+    return beams
+
+
+def test_timber_on_the_floor_by_a_tie_beam_is_not_in_the_frame():
+    beams = _truss_on_the_floor()
+    xyz = np.vstack([b.corners() for b in beams])
+    labels = np.repeat(np.arange(1, len(beams) + 1), 8).astype(np.int32)
+    result = BeamResult(
+        labels=labels,
+        beams=tuple(beams),
+        facet_labels=np.zeros(len(xyz), np.int32),
+        straight_labels=np.zeros(len(xyz), np.int32),
+        facet_beam=np.zeros(0, np.int32),
+        params=BeamParams(),
+    )
+    frame = analyse_frame(xyz, result, FrameParams())
+    assert any(set(jt.members) == {1, 10} for jt in frame.joints)  # it touches the tie
+    assert frame.in_frame[:9].all()
+    assert not frame.in_frame[9:].any()
+
+
+def test_segment_beams_leaves_loose_timber_to_the_remainder():
+    rng = np.random.default_rng(0)
+    beams = _truss_on_the_floor()
+    pts, truth = [], []
+    for i, b in enumerate(beams, start=1):  # the four long faces, 1.5 cm grid
+        a, u, v = b.axes[:, 0], b.axes[:, 1], b.axes[:, 2]
+        c0 = b.centre - 0.5 * (b.length * a + b.width * u + b.height * v)
+        for o, d, size in (
+            (c0, v, b.height),
+            (c0 + b.width * u, v, b.height),
+            (c0, u, b.width),
+            (c0 + b.height * v, u, b.width),
+        ):
+            p = _plane(o, a, d, b.length, size, 0.015, rng)
+            pts.append(p)
+            truth.append(np.full(len(p), i))
+    xyz, truth = np.vstack(pts), np.concatenate(truth)
+    keep = xyz[:, 2] > -0.005  # nothing below the floor
+    xyz, truth = xyz[keep], truth[keep]
+    res = segment_beams(xyz)
+    assert len(res.labels) == len(xyz)
+    assert len(res.beams) == 9
+    assert not res.labels[truth >= 10].any()  # the stored timber: remainder
+    found = {int(np.bincount(truth[res.labels == k]).argmax()) for k in range(1, 10)}
+    assert found == set(range(1, 10))
+    every = segment_beams(xyz, BeamParams(frame_only=False))
+    assert len(every.beams) == 12

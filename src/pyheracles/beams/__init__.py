@@ -47,7 +47,11 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    rounds of ``max_gap_m``; not by normals, noisy where points are few);
    groups of touching beams that all lie on a surface
    (timber stored on the floor) are dropped
-   (:func:`~pyheracles.beams.surfaces.resting_loose`);
+   (:func:`~pyheracles.beams.surfaces.resting_loose`), and so are the beams
+   that are no members of the frame (``BeamParams.frame_only``,
+   :func:`~pyheracles.beams.frame.frame_members`: timber lying at the frame's
+   bottom joined to no rising member, a ladder leaning on a post, what no
+   frame holds): their points go to the remainder;
 5. every point within ``surface_tolerance_m`` of a cuboid surface is given to
    the nearest cuboid (the thesis's re-merge of pool points): labels, not
    copies, and nothing is lost (the remainder is label 0).

@@ -11,7 +11,10 @@
    not a member of the frame, and so is a beam
    that only leans on it (one joint, at its upper half, its foot below the
    frame's bottom: a ladder against a post) or lies under it touching it (one
-   joint, wholly below the frame's bottom: timber on the floor);
+   joint, wholly below the frame's bottom: timber on the floor), and so is a
+   horizontal timber at the frame's bottom joined to no inclined or vertical
+   beam and shorter than most of the frame along it (:func:`loose`: timber
+   stored on the floor next to a tie beam);
 3. a role per beam from orientation, height, place and joints
    (:func:`~pyheracles.beams.roles.guess_roles`);
 4. per beam its deflection and twist from its own points
@@ -36,7 +39,7 @@ from pyheracles.beams.model import BeamCuboid, BeamResult
 from pyheracles.beams.roles import RoleParams, frame_levels, guess_roles
 from pyheracles.errors import InputError
 
-__all__ = ["FrameParams", "FrameResult", "analyse_frame"]
+__all__ = ["FrameParams", "FrameResult", "analyse_frame", "frame_members", "leaning", "loose"]
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,13 @@ class FrameParams:
     plumb_deg
         A beam at least this steep stands (a post on the floor), it does not
         lean, degrees (ladders lean at 65-80 degrees).
+    span_share
+        A horizontal beam lying at the frame's bottom (its underside within
+        one of its sections of it) that is joined to no inclined or vertical
+        beam and is shorter than this share of the frame's extent along it is
+        loose timber on the floor, not a member: the tie beams and plates of
+        the bottom carry the rafters and posts, or span the frame from wall
+        to wall (their joints hidden in the masonry).
     """
 
     joints: JointParams = field(default_factory=JointParams)
@@ -67,6 +77,7 @@ class FrameParams:
     min_frame_members: int = 3
     leaning_below_m: float = 0.3
     plumb_deg: float = 85.0
+    span_share: float = 0.8
 
     def validate(self) -> FrameParams:
         self.joints.validate()
@@ -78,6 +89,8 @@ class FrameParams:
             raise InputError(
                 f"leaning_below_m must be in [0, 10] metres, got {self.leaning_below_m}"
             )
+        if not 0 < self.span_share <= 1:
+            raise InputError(f"span_share must be in (0, 1], got {self.span_share}")
         if self.min_frame_members < 2:
             raise InputError(f"min_frame_members must be >= 2, got {self.min_frame_members}")
         return self
@@ -244,6 +257,71 @@ def leaning(
     return out
 
 
+def loose(
+    beams: list[BeamCuboid], joints: list[Joint], in_frame: NDArray[np.bool_], p: FrameParams
+) -> NDArray[np.bool_]:
+    """Beams of the frame that are timber lying loose at its bottom (see ``span_share``).
+
+    Horizontal (below ``roles.horizontal_deg``), the underside within one of
+    its sections of the bottom of the frame's horizontal beams, joined to no beam inclined more than
+    ``joints.inclined_deg``, and shorter than ``span_share`` of the extent of
+    the frame's other beams along its axis.
+    """
+    out = np.zeros(len(beams), bool)
+    incl = np.array([np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) for b in beams])
+    flat = in_frame & (incl <= p.roles.horizontal_deg)
+    if in_frame.sum() < 2 or not flat.any():
+        return out
+    # the bottom of the horizontal beams (a post's or a chimney's foot is lower)
+    bottom, _ = frame_levels(beams, flat, p.roles)
+    rising = incl >= p.joints.inclined_deg
+    corners = np.array([b.corners() for b in beams])
+    for i, b in enumerate(beams):
+        if not in_frame[i] or incl[i] > p.roles.horizontal_deg:
+            continue
+        underside = float(b.centre[2]) - _half_height(b)
+        if underside > bottom + max(b.width, b.height):
+            continue
+        if any(rising[k - 1] for jt in joints if i + 1 in jt.members for k in jt.members):
+            continue
+        others = in_frame.copy()
+        others[i] = False
+        if not others.any():
+            continue
+        along = corners[others].reshape(-1, 3) @ b.axis
+        out[i] = b.length < p.span_share * float(np.ptp(along))
+    return out
+
+
+def frame_members(
+    beams: list[BeamCuboid], joints: list[Joint], p: FrameParams
+) -> tuple[NDArray[np.int32], NDArray[np.bool_]]:
+    """The connected component of each beam and whether it is a member of the frame.
+
+    See the module's step 2.  Without any joint nothing holds together and no
+    beam is a member.
+    """
+    comp = components(len(beams), joints)
+    sizes = np.bincount(comp, minlength=2)
+    core = (sizes[comp] >= p.min_frame_members) | (comp == 1)
+    if len(beams) and sizes[1] < 2:  # no joint anywhere: nothing holds together
+        core[:] = False
+    core &= ~leaning(beams, joints, core, p)
+    in_frame = core.copy()
+    if core.any():
+        # a small group counts when it reaches the frame's bottom (a couple of rafters,
+        # a tie whose joints are hidden in the walls: its top within one section of
+        # the bottom); timber lying lower is loose
+        bottom, _ = frame_levels(beams, core, p.roles)
+        for c in np.unique(comp[(~core) & (sizes[comp] < p.min_frame_members)]):
+            ids = np.flatnonzero(comp == c)
+            top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
+            section = max(max(beams[i].width, beams[i].height) for i in ids)
+            in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
+        in_frame &= ~loose(beams, joints, in_frame, p)
+    return comp, in_frame
+
+
 def analyse_frame(
     xyz: ArrayLike, result: BeamResult, params: FrameParams | None = None
 ) -> FrameResult:
@@ -279,23 +357,7 @@ def analyse_frame(
     timings: dict[str, float] = {}
     t = time.perf_counter()
     joints = find_joints(beams, p.joints)
-    comp = components(len(beams), joints)
-    sizes = np.bincount(comp, minlength=2)
-    core = (sizes[comp] >= p.min_frame_members) | (comp == 1)
-    if len(beams) and sizes[1] < 2:  # no joint anywhere: nothing holds together
-        core[:] = False
-    core &= ~leaning(beams, joints, core, p)
-    in_frame = core.copy()
-    if core.any():
-        # a small group counts when it reaches the frame's bottom (a couple of rafters,
-        # a tie whose joints are hidden in the walls: its top within one section of
-        # the bottom); timber lying lower is loose
-        bottom, _ = frame_levels(beams, core, p.roles)
-        for c in np.unique(comp[(~core) & (sizes[comp] < p.min_frame_members)]):
-            ids = np.flatnonzero(comp == c)
-            top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
-            section = max(max(beams[i].width, beams[i].height) for i in ids)
-            in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
+    comp, in_frame = frame_members(beams, joints, p)
     roles = guess_roles(beams, joints, in_frame, p.roles)
     timings["joints_roles"] = time.perf_counter() - t
     t = time.perf_counter()

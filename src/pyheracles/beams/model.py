@@ -72,6 +72,14 @@ class BeamParams:
         a facet): a convex straight band at least twice ``min_elongation``
         times as long as wide, with the depth behind it read from its side
         points when there are any (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`).
+    frame_only
+        Keep only the beams that are members of the frame
+        (:func:`~pyheracles.beams.frame.frame_members` with the default
+        :class:`~pyheracles.beams.frame.FrameParams`): timber lying loose on
+        the floor, a ladder leaning on a post and detections joined to no
+        frame are not members, and their points go to the remainder (label 0).
+        When no two beams meet there is no frame to judge by and every beam is
+        kept.
     """
 
     region: RegionGrowingParams = field(
@@ -89,6 +97,7 @@ class BeamParams:
     surface_tolerance_m: float | None = None
     thin_spacing_m: float | None = 0.008
     one_face: bool = True
+    frame_only: bool = True
 
     def validate(self) -> BeamParams:
         if self.thin_spacing_m is not None and not 0 < self.thin_spacing_m < self.min_beam_width_m:

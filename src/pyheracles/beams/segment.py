@@ -24,7 +24,9 @@ from pyheracles.beams.facets import (
     plane_layers,
     wide_surface_points,
 )
+from pyheracles.beams.frame import FrameParams, frame_members
 from pyheracles.beams.grouping import face_runs, group_facets
+from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
 from pyheracles.beams.surfaces import cuboid_contacts, resting_loose, wide_surface_bands
 from pyheracles.cloud import PointCloud
@@ -509,6 +511,14 @@ def segment_beams(
         renumber = np.concatenate([[0], np.cumsum(~loose) * ~loose]).astype(np.int32)
         facet_beam = renumber[facet_beam]
         cuboids = [c for c, lo in zip(cuboids, loose, strict=True) if not lo]
+    if p.frame_only and len(cuboids) >= 2:
+        # loose timber, a ladder, what no frame holds: not members (to the remainder)
+        fp = FrameParams()
+        _, member = frame_members(cuboids, find_joints(cuboids, fp.joints), fp)
+        if member.any() and not member.all():
+            renumber = np.concatenate([[0], np.cumsum(member) * member]).astype(np.int32)
+            facet_beam = renumber[facet_beam]
+            cuboids = [c for c, m in zip(cuboids, member, strict=True) if m]
     labels = assign_to_cuboids(full, cuboids, tol, index if full is arr else None)
     timings["cuboids"] = time.perf_counter() - t3
     straight = np.zeros(len(arr), dtype=np.int32)
