@@ -105,7 +105,8 @@ def test_thin_post_carrying_nothing_is_no_broken_column() -> None:
     """Draw 17, a ruined peristyle of columns 1.19 m in radius: three pulpit stems
     (0.12 m, 2.1-2.6 m tall, carrying nothing: their desk stays within the cookie) were
     taken for broken columns.  A broken column of the building, as thick as the columns
-    that carry, stays; with no column carrying, nothing is judged."""
+    that carry, stays; with no column carrying (a roofless ruin, where the stems came
+    back once their rings were whole), the thickest column is the reference."""
     rows = [{"class": "column", "radius_m": 1.19}] * 4 + [
         {"class": "column", "radius_m": 0.12},
         {"class": "column", "radius_m": 1.17},  # a broken column
@@ -115,7 +116,8 @@ def test_thin_post_carrying_nothing_is_no_broken_column() -> None:
     ]
     carries = [True] * 4 + [False] * 5
     assert thin_free_columns(rows, carries) == {4, 7}
-    assert thin_free_columns(rows, [False] * len(rows)) == set()
+    assert thin_free_columns(rows, [False] * len(rows)) == {4, 7}
+    assert thin_free_columns(rows[4:5], [False]) == set()  # no thicker column: kept
 
 
 def test_lying_drum_is_no_pier_an_occluded_pier_is() -> None:

@@ -26,7 +26,7 @@ from pyheracles.supports.core import (
     scales,
 )
 from pyheracles.supports.height import choose_height, dense_extent
-from pyheracles.supports.piers import in_wall_line, wall_fragment
+from pyheracles.supports.piers import in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
 from pyheracles.supports.rings import RING_RADIUS_M, detached_half_column, engaged_on_wall
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
@@ -281,9 +281,14 @@ THIN_FREE_SHARE = 0.3
 
 def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
     """Indices of the columns carrying nothing thinner than ``THIN_FREE_SHARE`` x the
-    radius of the thickest column that carries (none when no column carries)."""
+    radius of the thickest column that carries, or, when none carries (a roofless
+    ruin), of the thickest column (draw 17: the stems of pulpits, 0.12 m, among broken
+    columns of 1.2 m)."""
     carried = [r["radius_m"] for r, c in zip(rows, carries, strict=True)
                if c and r["class"] == "column" and np.isfinite(r["radius_m"])]  # fmt: skip
+    if not carried:  # a roofless ruin: the thickest column standing, carrying nothing
+        carried = [r["radius_m"] for r in rows
+                   if r["class"] == "column" and np.isfinite(r["radius_m"])]  # fmt: skip
     if not carried:
         return set()
     limit = THIN_FREE_SHARE * max(carried)
@@ -305,8 +310,9 @@ def clear_of(sh: dict, shapes: list[dict]) -> bool:
 def wall_pieces(xy: Array, islands: list[Island], sc: Scales) -> set[int]:
     """Indices of the pier islands that are pieces of walls.
 
-    A piece is in line with the wall beside it (:func:`wall_fragment`) or lies on the
-    line of a wall face (:func:`in_wall_line`); a piece found so joins the wall, so a
+    A piece is in line with the wall beside it (:func:`wall_fragment`), lies on the
+    line of a wall face (:func:`in_wall_line`) or has a wall face running alongside it
+    (:func:`wall_alongside`); a piece found so joins the wall, so a
     run of pieces between openings is found from the wall at its end.
     """
     piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
@@ -321,7 +327,13 @@ def wall_pieces(xy: Array, islands: list[Island], sc: Scales) -> set[int]:
             return pieces
         wall_xy = np.vstack(wall)
         new = {
-            k for k in piers if k not in pieces and in_wall_line(islands[k], wall_xy, sc.tol, bin_m)
+            k
+            for k in piers
+            if k not in pieces
+            and (
+                in_wall_line(islands[k], wall_xy, sc.tol, bin_m)
+                or wall_alongside(islands[k], wall_xy, bin_m)
+            )
         }
         if not new:
             return pieces
@@ -343,12 +355,12 @@ def support_shapes(
     shapes: list[dict] = []
     wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
     wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
+    # the pieces of one pier outline broken at its corners are joined first: with their
+    # rectangles along their faces, one piece beside the other looked like a wall
+    # going on (draw 27); then the pieces of walls
+    islands, _ = regroup_pier_pieces(xy, islands, set(), params, sc.distance)
     pieces = wall_pieces(xy, islands, sc)
     fragments = len(pieces)
-    regrouped, pieces = regroup_pier_pieces(xy, islands, pieces, params, sc.distance)
-    if regrouped is not islands:  # a new rectangle may itself be a piece of a wall
-        islands = regrouped
-        pieces |= wall_pieces(xy, islands, sc)
     for k, isl in enumerate(islands):
         if k in pieces:
             continue

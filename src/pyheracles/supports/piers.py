@@ -44,9 +44,71 @@ def rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[float
     return trimmed_rms(d.min(axis=1)), np.r_[new_centre, hi - lo]
 
 
+#: Hull edges within this angle (mod 90 degrees) give one candidate rectangle direction.
+OUTLINE_ANGLE_BIN = np.radians(0.5)
+
+
+def outline_rectangle(xy: Array) -> tuple[Array, float, Array]:
+    """The rectangle whose outline the points ``xy`` lie on (centre, angle, size).
+
+    The minimum-area enclosing rectangle is the outline of a pier scanned all round, but
+    not of one seen from a corner: the two faces in view make an L whose hull is a
+    triangle, and the smallest rectangle around a triangle lies along its hypotenuse,
+    the diagonal of the pier (draw 27 of the supports family: a pier 1.07 x 0.72 m seen
+    as a 1.27 x 0.59 m rectangle turned 35 degrees, its points 6 cm off that outline).
+    Each direction of a hull edge (mod 90 degrees) gives the bounding rectangle in that
+    direction; the one whose outline the points are closest to (trimmed RMS) is kept,
+    ties to the smaller area.
+
+    Parameters
+    ----------
+    xy
+        ``(N, 2)`` points, metres.
+
+    Returns
+    -------
+    centre : (2,) array
+    angle : float
+        Direction of the first side, radians from +x.
+    size : (2,) array
+        Side lengths along the first and second direction (first >= second), metres.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    p = np.asarray(xy, dtype=np.float64)
+    m = p.mean(axis=0)
+    q = p - m
+    try:
+        hull = q[ConvexHull(q).vertices]
+    except (QhullError, ValueError):
+        hull = q
+    edges = np.diff(np.vstack([hull, hull[:1]]), axis=0)
+    ang = np.mod(np.arctan2(edges[:, 1], edges[:, 0]), np.pi / 2)
+    ang = np.unique(np.round(ang / OUTLINE_ANGLE_BIN)) * OUTLINE_ANGLE_BIN
+    cos, sin = np.cos(ang), np.sin(ang)
+    u = q @ np.vstack([cos, sin])  # (N, A)
+    v = q @ np.vstack([-sin, cos])
+    lo_u, hi_u, lo_v, hi_v = u.min(0), u.max(0), v.min(0), v.max(0)
+    d = np.minimum(np.minimum(u - lo_u, hi_u - u), np.minimum(v - lo_v, hi_v - v))
+    keep = max(1, int(0.9 * len(q)))  # the trimmed RMS of :func:`trimmed_rms`, per angle
+    rms = np.sqrt(np.mean(np.sort(d, axis=0)[:keep] ** 2, axis=0))
+    area = (hi_u - lo_u) * (hi_v - lo_v)
+    k = int(np.lexsort((area, np.round(rms, 4)))[0])
+    su, sv = hi_u[k] - lo_u[k], hi_v[k] - lo_v[k]
+    cu, cv = (hi_u[k] + lo_u[k]) / 2, (hi_v[k] + lo_v[k]) / 2
+    a = float(ang[k])
+    centre = m + np.array([cu * cos[k] - cv * sin[k], cu * sin[k] + cv * cos[k]])
+    if sv > su:
+        su, sv, a = sv, su, a + np.pi / 2
+    return centre, a, np.array([su, sv])
+
+
 #: No passage is narrower: section points this close around a pier belong to what it
 #: stands in (metres).
 CLEARANCE_M = 0.5
+#: A wall face alongside a pier candidate runs on beyond one of its ends over at least
+#: this length (metres).
+WALL_RUN_M = 0.5 * CLEARANCE_M
 
 
 def wall_fragment(xy: Array, isl: Island, tree: cKDTree, band_m: float) -> bool:
@@ -105,6 +167,45 @@ def in_wall_line(isl: Island, wall_xy: Array, tol: float, bin_m: float) -> bool:
         for side in (-h_across, h_across):
             on = beyond & (np.abs(across - side) <= tol)
             if np.count_nonzero(on) >= need and len(np.unique(np.floor(along[on] / bin_m))) >= need:
+                return True
+    return False
+
+
+#: A wall face alongside a pier candidate covers at least this share of its side.
+ALONGSIDE_COVER = 0.8
+
+
+def wall_alongside(isl: Island, wall_xy: Array, bin_m: float) -> bool:
+    """A pier candidate is a piece of a wall when a wall face runs alongside it.
+
+    The end of a thick wall seen from one side breaks up in the section: its end
+    face and its far face, crossed by scan lines far apart, are regrouped into an
+    open rectangle while its near face is a wall island of its own (draw 9 of the
+    supports family: a 1.15 m thick wall ending in a "pier" 1.1 x 0.95 m).  The near
+    face runs parallel to a side of the candidate, within :data:`CLEARANCE_M` of it,
+    along :data:`ALONGSIDE_COVER` of that side (in bins of ``bin_m``) and on beyond
+    one of its ends over :data:`WALL_RUN_M`.  A free pier has no wall face that close
+    (no passage is narrower), and the face of a neighbour in a row of piers does not
+    run on beyond its ends.
+    """
+    if len(wall_xy) == 0:
+        return False
+    half = np.maximum(isl.size / 2, 1e-6)
+    c, s = np.cos(isl.angle), np.sin(isl.angle)
+    q = wall_xy - isl.center
+    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    for along, across, h_along, h_across in ((u, v, half[0], half[1]), (v, u, half[1], half[0])):
+        for side in (-1.0, 1.0):
+            off = side * across - h_across
+            face = (off > 0) & (off <= CLEARANCE_M) & (np.abs(along) <= h_along + 2 * CLEARANCE_M)
+            if np.count_nonzero(face) < 3:
+                continue
+            a = along[face]
+            n_bins = max(1, int(np.ceil(2 * h_along / bin_m)))
+            inside = a[np.abs(a) <= h_along]
+            cover = len(np.unique(np.floor((inside + h_along) / bin_m))) / n_bins
+            beyond = max(float(a.max()) - h_along, -h_along - float(a.min()))
+            if cover >= ALONGSIDE_COVER and beyond >= WALL_RUN_M:
                 return True
     return False
 

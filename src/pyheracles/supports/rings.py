@@ -6,9 +6,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from pyheracles.geometry.fitting import MSACParams, fit_circle
+from pyheracles.geometry.fitting import MSACParams, fit_circle, fit_circle_msac
 from pyheracles.segment.euclidean import euclidean_clusters, relabel_by_size
 from pyheracles.supports.core import Array, Island, SupportParams, trimmed_rms
+from pyheracles.supports.piers import outline_rectangle, rect_rms
 
 #: Arcs of one ring are grouped across gaps up to this wide (metres): the scan lines of a
 #: distant terrestrial scan cross a column this far apart (4 cm at 10 m and 0.23 deg,
@@ -92,29 +93,175 @@ def rings_from_arcs(
     return kept + rings
 
 
-def ring_island(p: Array, index: NDArray[np.intp], params: SupportParams) -> Island | None:
-    """A column island when a circle explains the points ``p`` (section indices
-    ``index``): radius in ``RING_RADIUS_M``, trimmed RMS within 1 cm + 3 % of the radius
-    and at most half that of a straight line, the points spread over at least a quarter
-    of the ring (9 of 36 sectors); else None."""
-    ext = np.ptp(p, axis=0)
-    if len(p) < 5 or np.hypot(*ext) < params.min_support_size_m:
+#: An island is an arc of a column ring when a circle of a radius in ``RING_RADIUS_M``
+#: explains it (the ring test of :func:`ring_island`) over at least this many of 36
+#: sectors (40 degrees: a circle through a shorter arc is too loose to join others).
+ARC_MIN_SECTORS = 4
+#: A group of arcs is a column ring when they cover at least this many of 36 sectors
+#: (a quarter ring, as :func:`ring_island` asks of scattered points).
+RING_MIN_SECTORS = 9
+
+
+def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
+    """Circle through the points ``p`` when they lie on a column ring: ``(centre,
+    radius, trimmed RMS, RMS of the best straight line, sectors of 36 covered)``, else
+    None.
+
+    The ring test: radius in ``RING_RADIUS_M``, trimmed RMS within 1 cm + 3 % of the
+    radius, at most half that of a straight line, and not more than twice that of the
+    rectangle outline the points lie on (:func:`~pyheracles.supports.piers.outline_rectangle`:
+    the two faces of a small pier seen from a corner fit a circle within 1.5 cm; draw 32
+    of the supports family, piers of 0.49 x 0.31 m taken for columns of 0.2 m radius).
+    """
+    if len(p) < 5:
         return None
     circle = fit_circle(p)
     if not circle or not RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]:
         return None
     c_rms = trimmed_rms(circle.residuals(p))
-    centre = p.mean(axis=0)
-    ev = np.linalg.eigvalsh(np.cov((p - centre).T))
+    ev = np.linalg.eigvalsh(np.cov((p - p.mean(axis=0)).T))
     line_rms = float(np.sqrt(max(ev[0], 0.0)))
-    ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
-    sectors = np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int))
-    if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms or len(sectors) < 9:
+    if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms:
         return None
+    centre, angle, size = outline_rectangle(p)
+    if c_rms > 2.0 * rect_rms(p, centre, angle, size)[0]:
+        return None  # the points lie on a rectangle: a pier seen from a corner
+    ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
+    sectors = len(np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int)))
+    return np.asarray(circle.center), float(circle.radius), c_rms, line_rms, sectors
+
+
+def join_arcs(
+    xy: Array, labels: NDArray[np.intp], islands: list[Island], params: SupportParams
+) -> list[Island]:
+    """Islands that are arcs of one column ring joined into one column island.
+
+    The section ring of a large column breaks where its neighbour shadows it (twin
+    columns, a colonnade seen from one station) or where the scan lines graze it; its
+    arcs are islands of their own, and an arc longer than 1 m is long and thin like a
+    piece of wall (draw 33 of the supports family: columns of 1.1 m radius cut into
+    arcs of 1.2-1.9 m, every one a wall island).  Wall, noise and column islands
+    whose points lie on a circle of a column's radius (:func:`ring_fit`, at least
+    ``ARC_MIN_SECTORS`` of 36 sectors; a straight wall fits a circle of a radius of
+    kilometres) are joined, largest first, to a group when the circle through the
+    group and the arc still passes the ring test; a group covering
+    ``RING_MIN_SECTORS`` is one column island (its arcs leave the list).  Every group
+    takes the scattered points (unclustered, ``labels`` 0, or in noise islands) on
+    its ring (:func:`ring_scatter`): the far side of a ring crossed by a few distant
+    scan lines; a group covering less is a column when it then covers
+    ``RING_MIN_SECTORS`` and passes the ring test, else stays as it was.
+    """
+    arcs: list[tuple[int, int]] = []  # (island, sectors)
+    for k, isl in enumerate(islands):
+        if isl.kind not in ("wall", "noise", "column") or len(isl.index) < params.min_points:
+            continue
+        if isl.kind == "wall" and float(np.max(isl.size)) > 2.2 * RING_RADIUS_M[1]:
+            continue  # longer than the chord of any ring
+        fit = ring_fit(xy[isl.index])
+        if fit is not None and fit[4] >= ARC_MIN_SECTORS:
+            arcs.append((k, fit[4]))
+    if not arcs:
+        return islands
+    arcs.sort(key=lambda a: -len(islands[a[0]].index))
+    groups: list[list[int]] = []
+    fits: list[tuple[Array, float, float, float, int]] = []
+    for k, _ in arcs:
+        p = xy[islands[k].index]
+        c0 = ring_fit(p)
+        joined = False
+        for g, members in enumerate(groups):
+            centre, radius = fits[g][0], fits[g][1]
+            if np.hypot(*(c0[0] - centre)) > 0.5 * (radius + c0[1]):  # type: ignore[index]
+                continue  # cheap: another ring
+            both = ring_fit(np.vstack([xy[islands[j].index] for j in members] + [p]))
+            if both is not None and abs(both[1] - radius) <= 0.15 * radius:
+                members.append(k)
+                fits[g] = both
+                joined = True
+                break
+        if not joined:
+            groups.append([k])
+            fits.append(c0)  # type: ignore[arg-type]
+    grouped = {k for members in groups for k in members}
+    loose = [np.flatnonzero(labels == 0)] + [
+        i.index for k, i in enumerate(islands) if i.kind == "noise" and k not in grouped
+    ]
+    scatter = np.concatenate(loose)
+    out_of: set[int] = set()
+    rings: list[Island] = []
+    taken = np.zeros(len(xy), dtype=bool)
+    for members, fit in zip(groups, fits, strict=True):
+        index = np.concatenate([islands[j].index for j in members])
+        on = ring_scatter(xy, index, scatter[~taken[scatter]], fit, params.seed)
+        with_on = ring_fit(xy[np.r_[index, on]]) if len(on) else None
+        if with_on is not None and with_on[4] >= RING_MIN_SECTORS:
+            fit, index = with_on, np.r_[index, on]
+            taken[on] = True
+        elif fit[4] < RING_MIN_SECTORS or (
+            len(members) == 1 and islands[members[0]].kind == "column"
+        ):
+            continue  # no ring, or a column island already
+        centre, radius, c_rms, line_rms, _ = fit
+        ext = np.ptp(xy[index], axis=0)
+        nan = float("nan")
+        rings.append(Island("column", index, centre, radius, 0.0, ext, nan, c_rms, line_rms))
+        out_of.update(members)
+    if not rings:
+        return islands
+    kept = [
+        i for k, i in enumerate(islands)
+        if k not in out_of and not (i.kind == "noise" and taken[i.index].any())
+    ]  # fmt: skip
+    return kept + rings
+
+
+#: The circle through a short arc is loose: the scattered points of its ring are looked
+#: for this far (share of its radius, plus 10 cm) around its centre.
+SCATTER_REACH = 1.3
+
+
+def ring_scatter(
+    xy: Array,
+    arc: NDArray[np.intp],
+    scatter: NDArray[np.intp],
+    fit: tuple[Array, float, float, float, int],
+    seed: int,
+) -> NDArray[np.intp]:
+    """The scattered section points (indices ``scatter``) on the ring of an arc.
+
+    The circle through an arc of 40-80 degrees places the far side of its ring a few
+    centimetres off, so the ring is fitted again robustly (MSAC, radius within 20 % of
+    the arc's, inliers within three times the arc's RMS, at least 1 cm) through the arc
+    and the scattered points within ``SCATTER_REACH`` x its radius of its centre; the
+    scattered inliers are returned when the ring keeps 90 % of the arc's points (none
+    otherwise).
+    """
+    centre, radius, c_rms = fit[0], fit[1], fit[2]
+    near = scatter[np.hypot(*(xy[scatter] - centre).T) <= SCATTER_REACH * radius + 0.1]
+    if len(near) < 3:
+        return near[:0]
+    p = xy[np.r_[arc, near]]
+    msac = MSACParams(threshold=max(3.0 * c_rms, 0.01), max_trials=300, min_inlier_fraction=0.0)
+    ring = fit_circle_msac(p, msac, rng=seed, radius_range=(0.8 * radius, 1.25 * radius))
+    if not ring or ring.inliers is None or ring.inliers[: len(arc)].mean() < 0.9:
+        return near[:0]
+    return near[ring.inliers[len(arc) :]]
+
+
+def ring_island(p: Array, index: NDArray[np.intp], params: SupportParams) -> Island | None:
+    """A column island when a circle explains the points ``p`` (section indices
+    ``index``): the ring test of :func:`ring_fit`, the points spread over at least a
+    quarter of the ring (``RING_MIN_SECTORS`` of 36 sectors); else None."""
+    ext = np.ptp(p, axis=0)
+    if len(p) < 5 or np.hypot(*ext) < params.min_support_size_m:
+        return None
+    fit = ring_fit(p)
+    if fit is None or fit[4] < RING_MIN_SECTORS:
+        return None
+    centre, radius, c_rms, line_rms, _ = fit
     return Island(
-        "column", np.asarray(index), np.asarray(circle.center), float(circle.radius), 0.0,
-        ext, float("nan"), c_rms, line_rms,
-    )  # fmt: skip
+        "column", np.asarray(index), centre, radius, 0.0, ext, float("nan"), c_rms, line_rms
+    )
 
 
 def twin_rings(

@@ -12,11 +12,12 @@ from pyheracles.geometry.fitting import fit_circle, min_area_rectangle
 from pyheracles.geometry.sections import circularity
 from pyheracles.segment.euclidean import euclidean_clusters
 from pyheracles.supports.core import Array, Island, SupportParams, check_pair_memory, trimmed_rms
-from pyheracles.supports.piers import rect_rms
+from pyheracles.supports.piers import outline_rectangle, rect_rms
 from pyheracles.supports.rings import (
     ARC_GAP_M,
     RING_RADIUS_M,
     gap_clusters,
+    join_arcs,
     ring_island,
     rings_from_arcs,
     twin_rings,
@@ -56,6 +57,9 @@ def classify_island(
     kind = str(island_kind(np.array([length]), np.array([float(size[1])]), params)[0])
     circ, c_rms, r_rms, radius = nan, nan, nan, nan
     if kind == "support" and with_shapes:
+        # the rectangle the points lie on: a pier seen from a corner is an L, whose
+        # smallest enclosing rectangle is turned to its diagonal
+        centre, angle, size = outline_rectangle(p)
         circ = circularity(p)
         circle = fit_circle(p)
         r_rms, rect = rect_rms(p, centre, angle, size.copy())
@@ -114,6 +118,13 @@ def section_islands(
         idx = order[bounds[lab] : bounds[lab + 1]]
         out.append(classify_island(xy[idx], idx, params, with_shapes=with_shapes))
     if with_shapes:
+        out = join_arcs(xy, labels, out, params)
+        # the scattered points a ring took are no longer left over
+        ringed = np.zeros(len(xy), dtype=bool)
+        for i in out:
+            if i.kind == "column":
+                ringed[i.index] = True
+        labels = np.where(ringed & (labels == 0), -1, labels)
         out = rings_from_arcs(xy, labels, out, params, distance_m)
         out = sparse_islands(xy, labels, out, params, distance_m)
     return out
