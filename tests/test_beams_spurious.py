@@ -203,3 +203,31 @@ def test_segment_beams_leaves_loose_timber_to_the_remainder():
     assert found == set(range(1, 10))
     every = segment_beams(xyz, BeamParams(frame_only=False))
     assert len(every.beams) == 12
+
+
+def _frame_of(beams):
+    xyz = np.vstack([b.corners() for b in beams])
+    labels = np.repeat(np.arange(1, len(beams) + 1), 8).astype(np.int32)
+    result = BeamResult(
+        labels=labels,
+        beams=tuple(beams),
+        facet_labels=np.zeros(len(xyz), np.int32),
+        straight_labels=np.zeros(len(xyz), np.int32),
+        facet_beam=np.zeros(0, np.int32),
+        params=BeamParams(),
+    )
+    return analyse_frame(xyz, result, FrameParams())
+
+
+def test_a_chimney_joined_to_nothing_is_not_in_the_frame():
+    # roof seed 12: a chimney (46 x 28 cm, 4 m of it seen) stood free of every
+    # member and passed for a post; a tie beam whose joints are hidden in the
+    # walls, joined to nothing either, spans the frame and stays
+    beams = _truss_on_the_floor()[:9]
+    chimney = _box([1.5, 1.6, 0.0], [1.5, 1.6, 4.0], 0.46, 0.28, [1, 0, 0])
+    tie = _box([6.0, -3, 0.1], [6.0, 3, 0.1], 0.2, 0.2)
+    frame = _frame_of([*beams, chimney, tie])
+    assert not any(10 in jt.members or 11 in jt.members for jt in frame.joints)
+    assert frame.in_frame[:9].all()
+    assert not frame.in_frame[9]
+    assert frame.in_frame[10]

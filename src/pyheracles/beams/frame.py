@@ -5,8 +5,9 @@
 1. joints between the fitted cuboids (:func:`~pyheracles.beams.joints.find_joints`);
 2. the graph's connected components: a component of at least
    ``min_frame_members`` beams (or the largest one) is the frame, and so is a
-   smaller one that rises above the frame's bottom (a couple of rafters, a tie
-   beam whose joints are hidden in the walls); timber lying below the frame's
+   smaller one that rises above the frame's bottom (a couple of rafters), or a
+   horizontal beam joined to nothing that spans the frame (a tie beam whose
+   joints are hidden in the walls, ``span_share``; not a chimney); timber lying below the frame's
    bottom and joined to none of it (loose timber on the floor) is flagged as
    not a member of the frame, and so is a beam
    that only leans on it (one joint, at its upper half, its foot below the
@@ -313,11 +314,21 @@ def frame_members(
         # a tie whose joints are hidden in the walls: its top within one section of
         # the bottom); timber lying lower is loose
         bottom, _ = frame_levels(beams, core, p.roles)
+        corners = np.array([b.corners() for b in beams])[core].reshape(-1, 3)
         for c in np.unique(comp[(~core) & (sizes[comp] < p.min_frame_members)]):
             ids = np.flatnonzero(comp == c)
             top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
             section = max(max(beams[i].width, beams[i].height) for i in ids)
             in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
+            if len(ids) == 1:
+                # joined to nothing: only a beam spanning the frame (a tie from wall to
+                # wall, its joints hidden in the masonry), not a chimney or a stray piece
+                b = beams[ids[0]]
+                flat = math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))) <= (
+                    p.roles.horizontal_deg
+                )
+                spans = b.length >= p.span_share * float(np.ptp(corners @ b.axis))
+                in_frame[ids] &= flat and spans
         in_frame &= ~loose(beams, joints, in_frame, p)
     return comp, in_frame
 
