@@ -231,3 +231,18 @@ def test_a_chimney_joined_to_nothing_is_not_in_the_frame():
     assert frame.in_frame[:9].all()
     assert not frame.in_frame[9]
     assert frame.in_frame[10]
+
+
+def test_planks_on_top_of_a_stack_are_not_in_the_frame():
+    # roof seed 1: the two top planks of a stack (the lower ones gave no beam),
+    # 25-35 cm above the floor and crossing each other, were a small group
+    # standing above the frame's bottom
+    beams = _truss_on_the_floor()[:9]
+    planks = [
+        _box([1.0, -1.5, 0.26], [2.5, -1.5, 0.26], 0.2, 0.05),
+        _box([1.6, -2.2, 0.31], [1.9, -0.6, 0.31], 0.2, 0.05),
+    ]
+    frame = _frame_of([*beams, *planks])
+    assert any(set(jt.members) == {10, 11} for jt in frame.joints)
+    assert frame.in_frame[:9].all()
+    assert not frame.in_frame[9:].any()
