@@ -152,6 +152,28 @@ def test_short_arc_takes_the_far_side_of_its_ring() -> None:
     assert abs(cols[0].radius - 1.1) < 0.03
 
 
+def test_ring_in_bunches_far_apart_is_one_column() -> None:
+    """Draw 39 (a nave of columns 1.26 m in radius, three stations): a distant column
+    crossed by a few scan lines, its section ring in bunches 0.3-2 m apart, each less
+    than a quarter ring (7 and 3 of 36 sectors, and five lone points): no group at the
+    20 cm gap was a ring, the column was missed.  The bunches on one circle, with the
+    lone points on it, are one column."""
+    rng = np.random.default_rng(39)
+    c = np.array([21.0, 17.5])
+    xy = np.vstack(
+        [
+            _arc(c, 1.26, 100.0, 170.0, 0.08, rng),
+            _arc(c, 1.26, 200.0, 230.0, 0.05, rng),
+            _arc(c, 1.26, 290.0, 340.0, 0.25, rng),
+        ]
+    )
+    cols = [i for i in section_islands(xy, PARAMS, 0.04) if i.kind == "column"]
+    assert len(cols) == 1
+    np.testing.assert_allclose(cols[0].center, c, atol=0.03)
+    assert abs(cols[0].radius - 1.26) < 0.03
+    assert len(cols[0].index) >= 0.9 * len(xy)
+
+
 # ------------------------------------------------------------------ the end of a thick wall
 def test_end_of_a_thick_wall_is_no_pier() -> None:
     """Draw 9 (a portico): a wall 1.15 m thick ending at the front, its near face a
@@ -219,3 +241,15 @@ def test_large_rings_in_arcs_found_on_draw_33() -> None:
         cls, f1 = _found_true(sim, found, inst)
         assert cls == "column", inst
         assert f1 > 0.85, inst
+
+
+@pytest.mark.slow
+def test_small_piers_seen_from_a_corner_on_draw_32() -> None:
+    """Draw 32: piers 7 and 13 (0.49 x 0.31 m, seen from a corner) were columns, pier 8
+    was rejected for a box 29.8 m across; now piers with F1 above 0.9."""
+    sim = simulate("supports", 32)
+    _, found, _, _ = segment_building(sim.clouds["cloud"].xyz)
+    for inst in (7, 8, 13):
+        cls, f1 = _found_true(sim, found, inst)
+        assert cls == "pier", inst
+        assert f1 > 0.9, inst

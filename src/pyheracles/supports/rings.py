@@ -65,7 +65,11 @@ def rings_from_arcs(
     These leftovers are grouped again with the gap of a distant scan
     (``ARC_GAP_M``), and a group is a column when a circle explains it: radius in
     ``RING_RADIUS_M``, trimmed RMS within a few centimetres and well below that of a
-    straight line, the points spread over at least a quarter of the ring.
+    straight line, the points spread over at least a quarter of the ring; groups
+    that are shorter arcs (``ARC_MIN_SECTORS``) of one ring (:func:`group_arcs`), with
+    the scattered left-over points on that ring (:func:`ring_scatter`), are one column
+    when together they cover a quarter of it (draw 39: rings of 1.26 m crossed by a few
+    scan lines, in bunches 0.25-2 m apart).
     """
     noise = [k for k, i in enumerate(islands) if i.kind == "noise"]
     left = np.flatnonzero(labels == 0)
@@ -79,11 +83,34 @@ def rings_from_arcs(
     order = np.argsort(lab, kind="stable")
     bounds = np.r_[0, np.cumsum(np.bincount(lab))]
     rings: list[Island] = []
+    arcs: list[NDArray[np.intp]] = []  # groups on a circle but less than a quarter ring
     for g in range(1, len(bounds) - 1):  # loop over groups of arcs
         sub = order[bounds[g] : bounds[g + 1]]
         ring = ring_island(q[sub], left[sub], params)
         if ring is not None:
             rings.append(ring)
+        elif (fit := ring_fit(q[sub])) is not None and fit[4] >= ARC_MIN_SECTORS:
+            arcs.append(left[sub])
+    # arcs of one ring further apart than the gap (a distant column crossed by a few
+    # scan lines, its ring in two or three bunches: draw 39)
+    groups, fits = group_arcs(xy, arcs)
+    taken = np.zeros(len(xy), dtype=bool)
+    for r in rings:
+        taken[r.index] = True
+    for members, fit in zip(groups, fits, strict=True):
+        index = np.concatenate([arcs[j] for j in members])
+        rest = left[~taken[left]]
+        on = ring_scatter(xy, index, rest[~np.isin(rest, index)], fit, params.seed)
+        if len(on):  # and the scattered points of its ring (a bunch of a few points)
+            with_on = ring_fit(xy[np.r_[index, on]])
+            if with_on is not None and with_on[4] >= fit[4]:
+                fit, index = with_on, np.r_[index, on]
+        centre, radius, c_rms, line_rms, sectors = fit
+        if sectors >= RING_MIN_SECTORS:
+            taken[index] = True
+            ext = np.ptp(xy[index], axis=0)
+            nan = float("nan")
+            rings.append(Island("column", index, centre, radius, 0.0, ext, nan, c_rms, line_rms))
     if not rings:
         return islands
     used = np.zeros(len(xy), dtype=bool)
@@ -131,6 +158,38 @@ def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
     return np.asarray(circle.center), float(circle.radius), c_rms, line_rms, sectors
 
 
+def group_arcs(
+    xy: Array, arcs: list[NDArray[np.intp]]
+) -> tuple[list[list[int]], list[tuple[Array, float, float, float, int]]]:
+    """Arcs (index arrays into ``xy``, each passing :func:`ring_fit`) grouped by ring:
+    largest first, an arc joins the first group whose ring through it and the group's
+    arcs still passes the ring test, with a radius within 15 % of the group's.
+    Returns the groups (positions in ``arcs``) and the ring fit of each."""
+    order = sorted(range(len(arcs)), key=lambda j: -len(arcs[j]))
+    groups: list[list[int]] = []
+    fits: list[tuple[Array, float, float, float, int]] = []
+    for j in order:
+        p = xy[arcs[j]]
+        c0 = ring_fit(p)
+        if c0 is None:
+            continue
+        joined = False
+        for g, members in enumerate(groups):
+            centre, radius = fits[g][0], fits[g][1]
+            if np.hypot(*(c0[0] - centre)) > 0.5 * (radius + c0[1]):
+                continue  # cheap: another ring
+            both = ring_fit(np.vstack([xy[arcs[m]] for m in members] + [p]))
+            if both is not None and abs(both[1] - radius) <= 0.15 * radius:
+                members.append(j)
+                fits[g] = both
+                joined = True
+                break
+        if not joined:
+            groups.append([j])
+            fits.append(c0)
+    return groups, fits
+
+
 def join_arcs(
     xy: Array, labels: NDArray[np.intp], islands: list[Island], params: SupportParams
 ) -> list[Island]:
@@ -162,26 +221,8 @@ def join_arcs(
             arcs.append((k, fit[4]))
     if not arcs:
         return islands
-    arcs.sort(key=lambda a: -len(islands[a[0]].index))
-    groups: list[list[int]] = []
-    fits: list[tuple[Array, float, float, float, int]] = []
-    for k, _ in arcs:
-        p = xy[islands[k].index]
-        c0 = ring_fit(p)
-        joined = False
-        for g, members in enumerate(groups):
-            centre, radius = fits[g][0], fits[g][1]
-            if np.hypot(*(c0[0] - centre)) > 0.5 * (radius + c0[1]):  # type: ignore[index]
-                continue  # cheap: another ring
-            both = ring_fit(np.vstack([xy[islands[j].index] for j in members] + [p]))
-            if both is not None and abs(both[1] - radius) <= 0.15 * radius:
-                members.append(k)
-                fits[g] = both
-                joined = True
-                break
-        if not joined:
-            groups.append([k])
-            fits.append(c0)  # type: ignore[arg-type]
+    groups, fits = group_arcs(xy, [islands[k].index for k, _ in arcs])
+    groups = [[arcs[j][0] for j in members] for members in groups]
     grouped = {k for members in groups for k in members}
     loose = [np.flatnonzero(labels == 0)] + [
         i.index for k, i in enumerate(islands) if i.kind == "noise" and k not in grouped
