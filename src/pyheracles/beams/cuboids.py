@@ -450,7 +450,10 @@ def fit_one_face_cuboid(
     and they end before ``0.9 max_depth_m`` (a surface through the edge, such
     as boarding on a rafter's top or masonry under a plate, runs on and
     measures nothing); otherwise the depth is not known, the cuboid is a thin
-    slab on the face and ``height_measured`` is False.
+    slab on the face and ``height_measured`` is False.  A band whose side runs
+    on deeper than that while a surface rises in front of it from its other
+    edge is a ledge, not a beam (``None``: the top of a wall head between its
+    inner face and the wall plate standing on it).
 
     Parameters
     ----------
@@ -553,13 +556,21 @@ def fit_one_face_cuboid(
     if cover_ahead >= min_cover and back_cover < min_cover:
         return None  # a concave channel: the sides of two other members come forward
     depths = []
+    runs_on = False
     for edge in (s_lo, s_hi):
         sel = back & (np.abs(s_s - edge) <= e)
         if sel.sum() >= min_side_points and edge_coverage(t_s[sel], rng, step) >= min_cover:
             far = half_max_edges(-front * h_s[sel], bin_m)[1]
             if far < 0.9 * max_depth_m:
                 depths.append(far)
+            else:
+                runs_on = True
     measured = bool(depths)
+    if not measured and runs_on and cover_ahead >= min_cover:
+        # a ledge: a side going back deeper than any beam (the face of a wall
+        # under its head) and a surface rising in front from the other edge (the
+        # wall plate standing on the head) along the band
+        return None
     depth = float(min(depths)) if measured else 2.0 * margin
     centre = (
         c + a * 0.5 * (t_lo + t_hi) + across * 0.5 * (s_lo + s_hi) + n * (h0 - front * 0.5 * depth)
