@@ -13,9 +13,9 @@
    that only leans on it (one joint, at its upper half, its foot below the
    frame's bottom: a ladder against a post) or lies under it touching it (one
    joint, wholly below the frame's bottom: timber on the floor), and so is a
-   horizontal timber joined to no inclined or vertical beam and shorter than
-   most of the frame along it (:func:`loose`: timber stored on the floor or
-   on a stack, next to a tie beam);
+   horizontal timber at the frame's bottom joined to no inclined or vertical
+   beam and shorter than most of the frame along it (:func:`loose`: timber
+   stored on the floor next to a tie beam);
 3. a role per beam from orientation, height, place and joints
    (:func:`~pyheracles.beams.roles.guess_roles`);
 4. per beam its deflection and twist from its own points
@@ -64,10 +64,12 @@ class FrameParams:
         A beam at least this steep stands (a post on the floor), it does not
         lean, degrees (ladders lean at 65-80 degrees).
     span_share
-        A horizontal beam joined to no inclined or vertical beam and shorter
-        than this share of the frame's extent along it is loose timber, not a
-        member (:func:`loose`); a beam joined to nothing is a member only when
-        it is horizontal and at least this long.
+        A horizontal beam lying at the frame's bottom (its underside within
+        one of its sections of it) that is joined to no inclined or vertical
+        beam and is shorter than this share of the frame's extent along it is
+        loose timber on the floor, not a member: the tie beams and plates of
+        the bottom carry the rafters and posts, or span the frame from wall
+        to wall (their joints hidden in the masonry).
     """
 
     joints: JointParams = field(default_factory=JointParams)
@@ -259,25 +261,27 @@ def leaning(
 def loose(
     beams: list[BeamCuboid], joints: list[Joint], in_frame: NDArray[np.bool_], p: FrameParams
 ) -> NDArray[np.bool_]:
-    """Beams of the frame that are loose timber (see ``span_share``).
+    """Beams of the frame that are timber lying loose at its bottom (see ``span_share``).
 
-    Horizontal (below ``roles.horizontal_deg``), joined to no beam inclined
-    more than ``joints.inclined_deg``, and shorter than ``span_share`` of the
-    extent of the frame's other beams along its axis.  In a roof frame every
-    horizontal member carries or rests on rising ones (a tie beam the rafters'
-    feet and the posts, a purlin the struts and rafters, a collar the
-    rafters), or spans the frame from wall to wall with its joints hidden in
-    the masonry; timber stored on the floor, on a stack or against a tie
-    beam does neither (it may touch the frame's horizontal beams).
+    Horizontal (below ``roles.horizontal_deg``), the underside within one of
+    its sections of the bottom of the frame's horizontal beams, joined to no beam inclined more than
+    ``joints.inclined_deg``, and shorter than ``span_share`` of the extent of
+    the frame's other beams along its axis.
     """
     out = np.zeros(len(beams), bool)
-    if in_frame.sum() < 2:
-        return out
     incl = np.array([np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) for b in beams])
+    flat = in_frame & (incl <= p.roles.horizontal_deg)
+    if in_frame.sum() < 2 or not flat.any():
+        return out
+    # the bottom of the horizontal beams (a post's or a chimney's foot is lower)
+    bottom, _ = frame_levels(beams, flat, p.roles)
     rising = incl >= p.joints.inclined_deg
     corners = np.array([b.corners() for b in beams])
     for i, b in enumerate(beams):
         if not in_frame[i] or incl[i] > p.roles.horizontal_deg:
+            continue
+        underside = float(b.centre[2]) - _half_height(b)
+        if underside > bottom + max(b.width, b.height):
             continue
         if any(rising[k - 1] for jt in joints if i + 1 in jt.members for k in jt.members):
             continue
