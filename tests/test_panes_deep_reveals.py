@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from church_registration import error_at_interior, register_church
 from pyheracles.registration.face_holes import unseen_sides_from_hole
 from pyheracles.registration.panes import PaneParams, detect_openings
 
@@ -145,27 +146,6 @@ def test_a_window_over_an_unscanned_wall_is_an_opening() -> None:
 def test_the_draws_that_showed_it_register(seed: int) -> None:
     """Church draws 9 (deep recesses, detail scans) and 49 (clerestory over aisles):
     refused before ("no 3 openings in a consistent arrangement"), now within 1.5 cm."""
-    from pyheracles.cloud import PointCloud
-    from pyheracles.registration.similarity import SimilarityParams, estimate_similarity
-    from pyheracles.registration.tiepoints import TiePointParams, find_tie_points
-    from pyheracles.registration.transform import apply_to_points
-    from pyheracles.synthetic.families import simulate
-
-    sim = simulate("church", seed)
-    clouds = {
-        k: PointCloud.from_world(np.round(sim.clouds[k].xyz, 4), source=f"{k}.laz")
-        for k in ("interior", "exterior")
-    }
-    sp = SimilarityParams(with_scale=False, estimator="danish")
-    tp = find_tie_points(
-        clouds["interior"],
-        clouds["exterior"],
-        TiePointParams(pane_thickness_m=sim.params["pane_thickness_m"]),
-        similarity=sp,
-    )
-    res = estimate_similarity(tp.source.xyz, tp.target.xyz, sp)
-    T_true = np.linalg.inv(sim.transforms["exterior"]) @ sim.transforms["interior"]
-    probe = clouds["interior"].world_xyz()[::5000]
-    err = apply_to_points(res.T_target_source, probe) - apply_to_points(T_true, probe)
-    assert float(np.sqrt(np.mean(np.sum(err**2, axis=1)))) < 0.015
+    sim, clouds, tp, res = register_church(seed)
+    assert error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.015
     assert tp.details["n_recess_verified"] >= 3

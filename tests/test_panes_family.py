@@ -14,48 +14,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.cloud import PointCloud
+from church_registration import error_at_interior, register_church
 from pyheracles.errors import InputError
-from pyheracles.registration.similarity import SimilarityParams, estimate_similarity
-from pyheracles.registration.tiepoints import TiePointParams, find_tie_points
 from pyheracles.registration.transform import apply_to_points
-from pyheracles.synthetic.families import simulate
 
 pytestmark = pytest.mark.slow
 
 RIGID = ("tx", "ty", "tz", "omega", "phi", "kappa")  # the scale is fixed (rigid model)
 
 
-def _register(seed: int):
-    sim = simulate("church", seed)
-    clouds = {
-        k: PointCloud.from_world(np.round(sim.clouds[k].xyz, 4), source=f"{k}.laz")
-        for k in ("interior", "exterior")
-    }
-    sp = SimilarityParams(with_scale=False, estimator="danish")
-    tp = find_tie_points(
-        clouds["interior"],
-        clouds["exterior"],
-        TiePointParams(pane_thickness_m=sim.params["pane_thickness_m"]),
-        similarity=sp,
-    )
-    return sim, clouds, tp, estimate_similarity(tp.source.xyz, tp.target.xyz, sp)
-
-
-def _error_at_interior(sim, cloud, T) -> float:
-    T_true = np.linalg.inv(sim.transforms["exterior"]) @ sim.transforms["interior"]
-    probe = cloud.world_xyz()[::5000]
-    err = apply_to_points(T, probe) - apply_to_points(T_true, probe)
-    return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
-
-
 # 22 and 26: exterior outlines seen in part and single lights of mullioned windows
 # (before: refused as contradicted)
 @pytest.mark.parametrize("seed", [0, 2, 22, 26])
 def test_draws_that_failed_now_register(seed: int) -> None:
-    sim, clouds, tp, res = _register(seed)
+    sim, clouds, tp, res = register_church(seed)
     assert tp.details["n_matched_openings"] >= 5
-    assert _error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.01
+    assert error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.01
     # the report of manual tie points: residuals, standard deviations, sigma0
     assert res.rms()["3d"] < 0.015
     assert all(np.isfinite(res.std[k]) and res.std[k] > 0 for k in RIGID)
@@ -69,11 +43,11 @@ def test_draws_that_failed_now_register(seed: int) -> None:
 def test_the_recess_icp_rescues_shifted_outlines(seed: int) -> None:
     """Refused before the recess ICP (outlines contradicted); now right to a centimetre,
     verified by the raw points of at least three openings and a unique ICP minimum."""
-    sim, clouds, tp, res = _register(seed)
+    sim, clouds, tp, res = register_church(seed)
     assert tp.details["method"] == "recess_icp"
     assert tp.details["n_recess_verified"] >= 3
     assert tp.details["recess_basin_m"] < 0.005
-    assert _error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.01
+    assert error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.01
     assert res.rms()["3d"] < 0.015
 
 
@@ -83,8 +57,8 @@ def test_a_transform_is_right_or_refused(seed: int) -> None:
     jambs (a pane can slide along them: once returned 13 cm off); 24: three openings on
     one wall, one with a reveal depth 5 cm short (once returned 5 cm off)."""
     try:
-        sim, clouds, _tp, res = _register(seed)
+        sim, clouds, _tp, res = register_church(seed)
     except InputError as exc:
         assert "no trustworthy match" in str(exc) or "disagree" in str(exc)
         return
-    assert _error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.015
+    assert error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.015
