@@ -24,8 +24,14 @@ This module keeps that structure and fixes the failures the thesis reports:
    column when a circle explains its points better than a rectangle and the
    hull circularity ``P^2 / 4 pi A`` is at most 1.12 (thesis threshold; a
    partially scanned column passes on the model test alone, or when its circle
-   lies within the noise of the ring test), else a pier.  The points left over
-   are grouped again at their own spacing: column rings from their arcs, then at
+   lies within the noise of the ring test), else a pier; the rectangle is the one
+   the points lie on (a pier seen from a corner is an L, whose smallest enclosing
+   rectangle lies along its diagonal), and points that lie on it are no ring.
+   Islands that are arcs of one circle (the arcs of a large ring shadowed by its
+   twin are long and thin like pieces of wall) are one column, with the scattered
+   points of their ring.  The points left over
+   are grouped again at their own spacing: column rings from their arcs (bunches
+   of one ring further apart than the gap joined by their circle), then at
    gaps doubling up to 20 cm, largest first, rings, twin rings side by side and
    sparse piers on a rectangle outline (supports far from the scanners, crossed
    by scan lines far apart).  A second, 30 cm thick section finds the supports

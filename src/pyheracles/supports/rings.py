@@ -86,10 +86,15 @@ def rings_from_arcs(
     arcs: list[NDArray[np.intp]] = []  # groups on a circle but less than a quarter ring
     for g in range(1, len(bounds) - 1):  # loop over groups of arcs
         sub = order[bounds[g] : bounds[g + 1]]
-        ring = ring_island(q[sub], left[sub], params)
-        if ring is not None:
-            rings.append(ring)
-        elif (fit := ring_fit(q[sub])) is not None and fit[4] >= ARC_MIN_SECTORS:
+        ext = np.ptp(q[sub], axis=0)
+        fit = ring_fit(q[sub]) if np.hypot(*ext) >= params.min_support_size_m else None
+        if fit is not None and fit[4] >= RING_MIN_SECTORS:  # as ring_island, one fit
+            centre, radius, c_rms, line_rms, _ = fit
+            nan = float("nan")
+            rings.append(
+                Island("column", left[sub], centre, radius, 0.0, ext, nan, c_rms, line_rms)
+            )
+        elif fit is not None and fit[4] >= ARC_MIN_SECTORS:
             arcs.append(left[sub])
     # arcs of one ring further apart than the gap (a distant column crossed by a few
     # scan lines, its ring in two or three bunches: draw 39)
@@ -141,6 +146,9 @@ def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
     of the supports family, piers of 0.49 x 0.31 m taken for columns of 0.2 m radius).
     """
     if len(p) < 5:
+        return None
+    quick = fit_circle(p, method="algebraic")  # a straight wall: kilometres, at once
+    if not quick or quick.radius > 3.0 * RING_RADIUS_M[1]:
         return None
     circle = fit_circle(p)
     if not circle or not RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]:
