@@ -51,29 +51,34 @@ def occupancy(uv: Array, cell: float) -> tuple[NDArray[np.bool_], Array]:
     return ndimage.binary_closing(occ, structure=np.ones((3, 3)), border_value=0) | occ, lo
 
 
-def enclosed_holes(uv: Array, cell: float, p: PaneParams) -> tuple[NDArray, Array, int]:
-    """Labels of the enclosed empty regions of a face raster, its origin and the count."""
-    occ, lo = occupancy(uv, cell)
+def enclosed_holes(occ: NDArray[np.bool_]) -> tuple[NDArray, int]:
+    """Labels of the empty regions of a face raster ``occ`` that the face encloses (0
+    elsewhere, also on regions reaching the raster's border) and the count of regions."""
     lab, n = ndimage.label(~occ)
     border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
     lab[np.isin(lab, border)] = 0
-    return lab, lo, n
+    return lab, n
 
 
 def open_holes(
-    uv: Array, cell: float, lab: NDArray, behind: list[Array], p: PaneParams
+    occ: NDArray[np.bool_],
+    lo: Array,
+    cell: float,
+    lab: NDArray,
+    behind: list[Array],
+    p: PaneParams,
 ) -> list[NDArray[np.bool_]]:
     """Openings of a face whose hole runs into a part of the face nobody scanned.
 
     A clerestory window seen from the ground over an aisle roof, or a light with the
-    wall under its sill hidden, leaves an empty region of the face raster that reaches
-    its edge, and :func:`enclosed_holes` keeps enclosed regions only (church draw 49: 9 of 38
-    exterior windows so).  Such a region holds an opening where what lies behind the
-    face (glass, reveals: ``behind``, the ``(K, 2)`` face coordinates of points between
-    the face band and ``max_recess_m`` behind it, one array per side of the face) fills
-    it, and the face bounds it on at least half of its edge cells.
+    wall under its sill hidden, leaves an empty region of the face raster ``occ``
+    (origin ``lo``, cells of ``cell`` metres) that reaches its edge, and
+    :func:`enclosed_holes` (labels ``lab``) keeps enclosed regions only (church draw
+    49: 9 of 38 exterior windows so).  Such a region holds an opening where what lies
+    behind the face (glass, reveals: ``behind``, the ``(K, 2)`` face coordinates of
+    points between the face band and ``max_recess_m`` behind it, one array per side of
+    the face) fills it, and the face bounds it on at least half of its edge cells.
     """
-    occ, lo = occupancy(uv, cell)
     open_empty = ~occ & (lab == 0)
     out = []
     for q in behind:

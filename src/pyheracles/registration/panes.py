@@ -51,6 +51,7 @@ from pyheracles.registration.face_holes import (
     enclosed_holes,
     face_spacing,
     local_holes,
+    occupancy,
     open_holes,
     raster_cell,
     unseen_sides_from_hole,
@@ -662,7 +663,8 @@ def detect_openings(
         cell = raster_cell(spacing, p)
         uv = np.column_stack([fpts @ h, fpts @ v])
         # raster of the face at voxel resolution (a cell holds a voxel where it has points)
-        lab, lo, nlab = enclosed_holes(uv, cell, p)
+        occ, lo = occupancy(uv, cell)
+        lab, nlab = enclosed_holes(occ)
         if nlab == 0:
             continue
         face_density = 1.0 / max(spacing, 1e-4) ** 2  # points per square metre
@@ -676,7 +678,8 @@ def detect_openings(
         depth = vox @ n - d
         rec = (np.abs(depth) > p.face_band_m) & (np.abs(depth) < p.max_recess_m)
         behind = [vox[rec & (sgn * depth > 0)] for sgn in (1.0, -1.0)]
-        masks += open_holes(uv, cell, lab, [np.column_stack([q @ h, q @ v]) for q in behind], p)
+        behind_uv = [np.column_stack([q @ h, q @ v]) for q in behind]
+        masks += open_holes(occ, lo, cell, lab, behind_uv, p)
         for mask in masks:
             if mask.sum() * cell * cell < p.min_width_m * p.min_height_m * 0.5:
                 continue
