@@ -10,12 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from pyheracles.beams import segment_beams
-from pyheracles.beams.cuboids import fit_one_face_cuboid, join_pieces
+from pyheracles.beams.cuboids import join_pieces
 from pyheracles.beams.deflection import BoxIndex
 from pyheracles.beams.frame import FrameParams, analyse_frame
-from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
+from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult
 from pyheracles.beams.segment import extend_along_axis
-from pyheracles.geometry.neighbours import build_tree
 from pyheracles.synthetic.families.roof_frame import member_between
 
 NOISE = 0.002
@@ -232,66 +231,6 @@ def test_a_chimney_joined_to_nothing_is_not_in_the_frame():
     assert frame.in_frame[:9].all()
     assert not frame.in_frame[9]
     assert frame.in_frame[10]
-
-
-def _wall_head(rng, with_plate=True):
-    """An eaves wall head seen from the room, as in roof seed 8 (axes: x along the wall).
-
-    The wall's inner face (y = 0) rises from the floor to its head at 0.85 m;
-    the head's top runs 0.38 m back to the wall plate (15 x 9 cm) standing on
-    it.  Floor in front, the room's roof boarding far above (the front side).
-    Returns the points and the indices of the head's top band.
-    """
-    length, z_head, top_w = 6.0, 0.85, 0.38
-    parts = [
-        _plane(np.array([0.0, 0.0, 0.0]), X, Z, length, z_head, 0.015, rng),  # inner face
-        _plane(np.array([0.0, 0.0, z_head]), X, Y, length, top_w, 0.008, rng),  # head top
-        _plane(np.array([0.0, -4.0, 0.0]), X, Y, length, 4.0, 0.05, rng),  # floor
-        _plane(np.array([0.0, -6.0, 2.0]), X, Z, length, 2.5, 0.03, rng),  # the far wall
-        _plane(np.array([0.0, -6.0, 3.0]), X, Y, length, 6.0, 0.03, rng),  # boarding above
-    ]
-    if with_plate:
-        parts += [
-            _plane(np.array([0.0, top_w, z_head]), X, Z, length, 0.09, 0.008, rng),  # its face
-            _plane(np.array([0.0, top_w, z_head + 0.09]), X, Y, length, 0.15, 0.008, rng),
-        ]
-    xyz = np.vstack(parts)
-    n0 = len(parts[0])
-    band = np.arange(n0, n0 + len(parts[1]))
-    return xyz, band
-
-
-def _band(xyz, index):
-    return StraightFacet(
-        index=index,
-        normal=Z.copy(),
-        axis=X.copy(),
-        centre=xyz[index].mean(axis=0),
-        width=0.38,
-        length=6.0,
-        plane_rms=NOISE,
-        parent=1,
-    )
-
-
-def test_the_top_of_a_wall_head_under_its_plate_is_a_ledge_not_a_beam():
-    # roof seed 8: the top of the eaves wall's head between its inner face and
-    # the wall plate standing on it (38 cm x 6 m) came out as beams seen on one
-    # face, slabs of unmeasured depth (3 of its 5 spurious walls)
-    xyz, band = _wall_head(np.random.default_rng(8))
-    tree = build_tree(xyz)
-    got = fit_one_face_cuboid(
-        xyz, tree, [_band(xyz, band)], xyz[::10], bin_m=0.008, max_depth_m=0.6
-    )
-    assert got is None
-    # a band whose side runs down into a wall with nothing standing on it (a
-    # plate flush with the wall's face, seen from above) is still a beam
-    xyz, band = _wall_head(np.random.default_rng(9), with_plate=False)
-    tree = build_tree(xyz)
-    got = fit_one_face_cuboid(
-        xyz, tree, [_band(xyz, band)], xyz[::10], bin_m=0.008, max_depth_m=0.6
-    )
-    assert got is not None and not got.height_measured
 
 
 def test_a_raised_tie_beam_cut_short_stays_in_the_frame():

@@ -304,30 +304,38 @@ def join_pieces(
     joined = True
     while joined:
         joined = False
-        for i in range(len(out)):
-            for j in range(i + 1, len(out)):
-                if not collinear(out[i], out[j], cos_par, max_gap):
-                    continue
-                a, b = out[i], out[j]
-                key = lambda c: (c.faces_seen, c.height_measured, c.length)  # noqa: E731
-                main = a if key(a) >= key(b) else b
-                ends = np.array(
-                    [c.centre + s * 0.5 * c.length * c.axis for c in (a, b) for s in (-1.0, 1.0)]
-                )
-                t = (ends - main.centre) @ main.axis
-                lo, hi = float(t.min()), float(t.max())
-                out[i] = replace(
-                    main,
-                    centre=main.centre + main.axis * 0.5 * (lo + hi),
-                    length=hi - lo,
-                    n_facets=a.n_facets + b.n_facets,
-                )
-                del out[j]
-                ids = [i if k == j else (k - 1 if k > j else k) for k in ids]
-                joined = True
-                break
-            if joined:
-                break
+        if len(out) < 2:
+            break
+        # candidate pairs: parallel, each centre within a section of the other's axis
+        axes = np.array([c.axis for c in out])
+        centres = np.array([c.centre for c in out])
+        reach = np.array([max(c.width, c.height) for c in out])
+        d = centres[None, :, :] - centres[:, None, :]
+        perp = d - np.einsum("ijk,ik->ij", d, axes)[:, :, None] * axes[:, None, :]
+        near = np.linalg.norm(perp, axis=2) <= reach[:, None] + reach[None, :]
+        near &= np.abs(axes @ axes.T) >= cos_par
+        for i, j in zip(*np.nonzero(np.triu(near, 1)), strict=True):
+            i, j = int(i), int(j)
+            if not collinear(out[i], out[j], cos_par, max_gap):
+                continue
+            a, b = out[i], out[j]
+            key = lambda c: (c.faces_seen, c.height_measured, c.length)  # noqa: E731
+            main = a if key(a) >= key(b) else b
+            ends = np.array(
+                [c.centre + s * 0.5 * c.length * c.axis for c in (a, b) for s in (-1.0, 1.0)]
+            )
+            t = (ends - main.centre) @ main.axis
+            lo, hi = float(t.min()), float(t.max())
+            out[i] = replace(
+                main,
+                centre=main.centre + main.axis * 0.5 * (lo + hi),
+                length=hi - lo,
+                n_facets=a.n_facets + b.n_facets,
+            )
+            del out[j]
+            ids = [i if k == j else (k - 1 if k > j else k) for k in ids]
+            joined = True
+            break
     new_id = np.concatenate([[0], np.asarray(ids, dtype=np.int32) + 1]).astype(np.int32)
     return out, new_id
 
@@ -450,10 +458,7 @@ def fit_one_face_cuboid(
     and they end before ``0.9 max_depth_m`` (a surface through the edge, such
     as boarding on a rafter's top or masonry under a plate, runs on and
     measures nothing); otherwise the depth is not known, the cuboid is a thin
-    slab on the face and ``height_measured`` is False.  A band whose side runs
-    on deeper than that while a surface rises in front of it from its other
-    edge is a ledge, not a beam (``None``: the top of a wall head between its
-    inner face and the wall plate standing on it).
+    slab on the face and ``height_measured`` is False.
 
     Parameters
     ----------
@@ -556,21 +561,13 @@ def fit_one_face_cuboid(
     if cover_ahead >= min_cover and back_cover < min_cover:
         return None  # a concave channel: the sides of two other members come forward
     depths = []
-    runs_on = False
     for edge in (s_lo, s_hi):
         sel = back & (np.abs(s_s - edge) <= e)
         if sel.sum() >= min_side_points and edge_coverage(t_s[sel], rng, step) >= min_cover:
             far = half_max_edges(-front * h_s[sel], bin_m)[1]
             if far < 0.9 * max_depth_m:
                 depths.append(far)
-            else:
-                runs_on = True
     measured = bool(depths)
-    if not measured and runs_on and cover_ahead >= min_cover:
-        # a ledge: a side going back deeper than any beam (the face of a wall
-        # under its head) and a surface rising in front from the other edge (the
-        # wall plate standing on the head) along the band
-        return None
     depth = float(min(depths)) if measured else 2.0 * margin
     centre = (
         c + a * 0.5 * (t_lo + t_hi) + across * 0.5 * (s_lo + s_hi) + n * (h0 - front * 0.5 * depth)
