@@ -223,7 +223,7 @@ def detect_supports_checked(
         if kept is None:
             continue
         cidx, crho, cpts = kept
-        row = describe(cpts, crho, sh, sc.tol)
+        row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
         if sh["class"] != "pier" and not (
             abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
             and row["radius_m"] >= RING_RADIUS_M[0]

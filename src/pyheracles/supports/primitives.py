@@ -4,8 +4,10 @@ Columns of the objects table (:func:`describe`) beyond the primitive: the suppor
 inclination ``tilt_deg`` (axis from the vertical), ``lean_m`` (horizontal offset of
 the axis over the support's height) and ``lean_azimuth_deg`` (direction of that
 offset, degrees clockwise from +y, grid north), the shaft's ``radius_bottom_m`` and
-``radius_top_m`` (a tapered cylinder; ``radius_m`` is the radius of the cylinder of
-the section's shaft points, at ``radius_height_m`` above ``z_min``), and its parts as
+``radius_top_m`` (a tapered cylinder; ``radius_m`` is the shaft's radius at the
+height of the section, ``radius_height_m`` above ``z_min``: flutes averaged, from the
+shaft's surface about its axis in a window around that height, :func:`column_shape`),
+and its parts as
 heights above ``z_min``: ``base_top_m`` (top of the plinth / base band) and
 ``capital_bottom_m`` (bottom of the capital / abacus band), NaN when the support has
 none (:func:`part_bands`).  A column's axis (``axis_x/y/z``, ``x``, ``y`` on it) is
@@ -226,17 +228,44 @@ def pier_box(pts: Array, sh: dict, tol: float) -> BoxFit | FailedFit:
     return alt if wide or alt.rms < box.rms else box
 
 
-def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
+def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | None = None) -> dict:
     """Objects-table row of one support (its points ``pts``) with its fitted primitive.
 
-    ``rho`` is each point's offset from the section's shape (within ``tol``: the
-    section's shaft), ``sh`` the section shape, ``tol`` the surface tolerance (m).
-    Columns as in the module docstring; piers get ``base_top_m`` / ``capital_bottom_m``
-    from the reach of their layers beyond the fitted box.
+    Parameters
+    ----------
+    pts : (N, 3) ndarray
+        The support's points (metres).
+    rho : (N,) ndarray
+        Each point's offset from the section's shape (within ``tol``: the section's
+        shaft).
+    sh : dict
+        The section shape.
+    tol : float
+        Surface tolerance (metres).
+    z_ref : float, optional
+        Height (z) of the section the shape was found in: a column's ``radius_m`` is
+        measured there.  Default: the median height of the section's shaft points.
+
+    Returns
+    -------
+    dict
+        The row; columns as in the module docstring.  Piers get ``base_top_m`` /
+        ``capital_bottom_m`` from the reach of their layers beyond the fitted box.
+
+    Notes
+    -----
+    The points within ``tol`` of the section circle are not the section: on a tapered
+    shaft they are the band of heights where the shaft's radius is within ``tol`` of
+    the circle's, several metres tall when ``tol`` is a few centimetres and cut by the
+    capital or the floor on one side, and centred where the radius equals the circle's
+    (a circle fitted a centimetre too large moves the band down the shaft to where the
+    shaft is that large).  Their cylinder gives the axis; the radius is measured at
+    ``z_ref`` along that axis (:func:`column_shape`).
     """
     shaft = np.abs(rho) <= tol
     fit_pts = pts[shaft] if shaft.sum() >= 20 else pts
-    z_ref = float(np.median(fit_pts[:, 2]))  # the section's height: radius_m is there
+    if z_ref is None or not np.isfinite(z_ref):
+        z_ref = float(np.median(fit_pts[:, 2]))
     if len(fit_pts) > 3000:  # the fit is as good on a spread sample and much faster
         fit_pts = fit_pts[np.linspace(0, len(fit_pts) - 1, 3000).astype(np.intp)]
     nan = float("nan")
@@ -290,7 +319,7 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float) -> dict:
             axis = axis if axis[2] >= 0 else -axis
             row.update(x=float(point[0]), y=float(point[1]), axis_x=float(axis[0]),
                        axis_y=float(axis[1]), axis_z=float(axis[2]))  # fmt: skip
-            row.update(column_shape(pts, point, axis, radius, tol))
+            row.update(column_shape(pts, point, axis, radius, tol, z_ref=z_ref))
     else:
         box = pier_box(fit_pts, sh, tol)
         if box:
@@ -391,8 +420,17 @@ def part_bands(
     return base, cap
 
 
-def column_shape(pts: Array, point: Array, axis: Array, radius: float, tol: float) -> dict:
-    """Inclination, end radii of the shaft and parts of a column from its points.
+#: The radius at the section is measured over the shaft within this share of its length
+#: of the section's height, and within at least ``REF_WINDOW_M`` metres.
+REF_WINDOW_SHARE = 0.1
+REF_WINDOW_M = 0.5
+
+
+def column_shape(
+    pts: Array, point: Array, axis: Array, radius: float, tol: float, *,
+    z_ref: float | None = None,
+) -> dict:  # fmt: skip
+    """Inclination, radii of the shaft and parts of a column from its points.
 
     The radius along the axis is fitted as a line to the per-layer medians of the
     distances to the axis of the points within ``max(3 tol, 0.15 radius)`` of the
@@ -400,6 +438,13 @@ def column_shape(pts: Array, point: Array, axis: Array, radius: float, tol: floa
     (:func:`part_bands` on the 90th percentile reach of each layer); the end radii are
     that line at the shaft's two ends.  ``base_top_m`` and ``capital_bottom_m`` are the
     heights above ``z_min`` of the axis where the bands end (found along the axis).
+
+    With ``z_ref`` (a height, m), also ``radius_m``: the shaft's radius there, the same
+    line fitted over the shaft within ``REF_WINDOW_SHARE`` of its length (at least
+    ``REF_WINDOW_M``) of that height (an entasis is a curve; over a tenth of the shaft
+    it is a line within a tenth of a millimetre), and ``radius_height_m`` (``z_ref``
+    above ``z_min``).  The per-layer medians average the flutes (half the arrises, half
+    the flutes' depth) and the noise.
     """
     a = np.asarray(axis, dtype=np.float64)
     a = a / np.linalg.norm(a)
@@ -456,7 +501,68 @@ def column_shape(pts: Array, point: Array, axis: Array, radius: float, tol: floa
         base_top_m=above(base),
         capital_bottom_m=above(cap),
     )
+    if z_ref is not None and np.isfinite(z_ref) and abs(a[2]) > 1e-6:
+        h_ref = (z_ref - point[2]) / a[2] - t0  # the axis at the height z_ref
+        w = max(REF_WINDOW_M, REF_WINDOW_SHARE * (hi - lo))
+        a_lo, a_hi = max(lo, h_ref - w), min(hi, h_ref + w)
+        local = line(a_lo, a_hi) if a_hi - a_lo >= REF_WINDOW_M else None
+        c = coef if local is None else local
+        r_ref = float(c[0] + c[1] * h_ref)
+        sel = ring & (h >= a_lo) & (h <= a_hi)
+        at_ref = section_radius(rel[sel] - np.outer(t[sel], a), h[sel] - h_ref, a, float(c[1]))
+        out.update(
+            radius_m=r_ref if at_ref is None else at_ref, radius_height_m=float(z_ref - z_min)
+        )
     return out
+
+
+def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | None:
+    """Radius of a shaft at one height from its surface points near that height.
+
+    Parameters
+    ----------
+    rel : (N, 3) ndarray
+        The points' offsets from the shaft's axis, perpendicular to it (metres).
+    dh : (N,) ndarray
+        Their heights along the axis above the reference height (metres).
+    axis : (3,) ndarray
+        Unit axis.
+    slope : float
+        The shaft's taper, radius change per metre along the axis.
+
+    Returns
+    -------
+    float or None
+        The radius at the reference height: every point moved radially by
+        ``-slope x dh`` (to the reference height), then a geometric circle with a free
+        centre in the plane normal to the axis, refitted once without the points more
+        than three robust standard deviations off it.  The free centre takes up an axis
+        a few millimetres off the shaft's (a cone fitted to a shaft seen mostly from one
+        side): distances to such an axis are biased by up to that offset where the points
+        are denser on one side.  None with fewer than 20 points or a failed fit.
+    """
+    if len(rel) < 20:
+        return None
+    if len(rel) > 4000:
+        keep = np.linspace(0, len(rel) - 1, 4000).astype(np.intp)
+        rel, dh = rel[keep], dh[keep]
+    d = np.linalg.norm(rel, axis=1)
+    d = np.where(d > 0, d, 1e-12)
+    moved = rel * ((d - slope * dh) / d)[:, None]
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    xy = np.c_[moved @ e1, moved @ e2]
+    circle = fit_circle(xy)
+    if not circle:
+        return None
+    res = np.hypot(*(xy - circle.center).T) - circle.radius
+    sigma = 1.4826 * float(np.median(np.abs(res - np.median(res))))
+    close = np.abs(res - np.median(res)) <= max(3.0 * sigma, 1e-4)
+    if 20 <= close.sum() < len(xy):
+        again = fit_circle(xy[close])
+        circle = again if again else circle
+    return float(circle.radius)
 
 
 def implausible(row: dict, pts: Array, sc: Scales) -> str:
