@@ -439,12 +439,13 @@ def column_shape(
     that line at the shaft's two ends.  ``base_top_m`` and ``capital_bottom_m`` are the
     heights above ``z_min`` of the axis where the bands end (found along the axis).
 
-    With ``z_ref`` (a height, m), also ``radius_m``: the shaft's radius there, the same
-    line fitted over the shaft within ``REF_WINDOW_SHARE`` of its length (at least
-    ``REF_WINDOW_M``) of that height (an entasis is a curve; over a tenth of the shaft
-    it is a line within a tenth of a millimetre), and ``radius_height_m`` (``z_ref``
-    above ``z_min``).  The per-layer medians average the flutes (half the arrises, half
-    the flutes' depth) and the noise.
+    With ``z_ref`` (a height, m), also ``radius_m``: the shaft's radius there
+    (:func:`section_radius` of the shaft's points within ``REF_WINDOW_SHARE`` of its
+    length, at least ``REF_WINDOW_M``, of that height, as far above as below it where
+    the shaft's ends allow; the taper from the same line fitted over that window: an
+    entasis is a curve, over a tenth of the shaft a line within a tenth of a
+    millimetre), and ``radius_height_m`` (``z_ref`` above ``z_min``).  The circle's
+    least squares average the flutes (half the flutes' depth) and the noise.
     """
     a = np.asarray(axis, dtype=np.float64)
     a = a / np.linalg.norm(a)
@@ -506,9 +507,19 @@ def column_shape(
         w = max(REF_WINDOW_M, REF_WINDOW_SHARE * (hi - lo))
         a_lo, a_hi = max(lo, h_ref - w), min(hi, h_ref + w)
         local = line(a_lo, a_hi) if a_hi - a_lo >= REF_WINDOW_M else None
+        # the circle's points centred on h_ref where the shaft allows: a taper measured
+        # about an axis leaning by the taper angle then moves none of them on average
+        w_sym = min(w, h_ref - lo, hi - h_ref)
+        if w_sym >= REF_WINDOW_M / 2:
+            a_lo, a_hi = h_ref - w_sym, h_ref + w_sym
         c = coef if local is None else local
         r_ref = float(c[0] + c[1] * h_ref)
-        sel = ring & (h >= a_lo) & (h <= a_hi)
+        # the shaft's surface in the window about its own radius there, not the shaft's
+        # mean one: about an axis leaning by the taper angle, one side of the shaft's
+        # foot lies beyond the ring of the mean radius (the circle took the other)
+        win = (h >= a_lo) & (h <= a_hi)
+        d_win = float(np.median(d[win & ring])) if np.any(win & ring) else radius
+        sel = win & (np.abs(d - d_win) <= max(3.0 * tol, 0.15 * radius))
         at_ref = section_radius(rel[sel] - np.outer(t[sel], a), h[sel] - h_ref, a, float(c[1]))
         out.update(
             radius_m=r_ref if at_ref is None else at_ref, radius_height_m=float(z_ref - z_min)
@@ -533,13 +544,17 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     Returns
     -------
     float or None
-        The radius at the reference height: every point moved radially by
-        ``-slope x dh`` (to the reference height), then a geometric circle with a free
-        centre in the plane normal to the axis, refitted once without the points more
-        than three robust standard deviations off it.  The free centre takes up an axis
-        a few millimetres off the shaft's (a cone fitted to a shaft seen mostly from one
-        side): distances to such an axis are biased by up to that offset where the points
-        are denser on one side.  None with fewer than 20 points or a failed fit.
+        The radius at the reference height: a circle with a free centre in the plane
+        normal to the axis whose radius changes linearly with ``dh`` (the local taper,
+        started from ``slope``, the start circle from the points moved radially by
+        ``-slope x dh``), refitted once without the points more than three robust
+        standard deviations off it.  The free centre takes up an axis a few millimetres
+        off the shaft's (a cone fitted to a shaft seen mostly from one side): distances
+        to such an axis are biased by up to that offset where the points are denser on
+        one side.  The free taper takes up an axis leaning by the taper angle (the
+        distances to it taper by another slope, draw 22: +0.018 m/m for -0.022), which
+        moves the radius where the window is cut by the base.  None with fewer than 20
+        points or a failed start circle.
     """
     if len(rel) < 20:
         return None
@@ -552,17 +567,34 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
-    xy = np.c_[moved @ e1, moved @ e2]
-    circle = fit_circle(xy)
+    circle = fit_circle(np.c_[moved @ e1, moved @ e2])
     if not circle:
         return None
-    res = np.hypot(*(xy - circle.center).T) - circle.radius
-    sigma = 1.4826 * float(np.median(np.abs(res - np.median(res))))
-    close = np.abs(res - np.median(res)) <= max(3.0 * sigma, 1e-4)
-    if 20 <= close.sum() < len(xy):
-        again = fit_circle(xy[close])
-        circle = again if again else circle
-    return float(circle.radius)
+    from scipy.optimize import least_squares
+
+    xy = np.c_[rel @ e1, rel @ e2]
+    keep = np.ones(len(xy), dtype=bool)
+    x = np.r_[circle.center, circle.radius, slope]
+    for _ in range(2):  # the cone, then again without the points 3 sigma off it
+        q, h = xy[keep], dh[keep]
+
+        def res(v: Array, q: Array = q, h: Array = h) -> Array:
+            return np.hypot(q[:, 0] - v[0], q[:, 1] - v[1]) - (v[2] + v[3] * h)
+
+        try:
+            sol = least_squares(res, x, method="lm")
+        except (ValueError, np.linalg.LinAlgError):
+            return float(x[2])
+        if not sol.success or not np.all(np.isfinite(sol.x)):
+            return float(x[2])
+        x = sol.x
+        r_all = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - (x[2] + x[3] * dh)
+        sigma = 1.4826 * float(np.median(np.abs(r_all - np.median(r_all))))
+        new = np.abs(r_all - np.median(r_all)) <= max(3.0 * sigma, 1e-4)
+        if new.sum() < 20 or np.array_equal(new, keep):
+            break
+        keep = new
+    return float(x[2])
 
 
 def implausible(row: dict, pts: Array, sc: Scales) -> str:

@@ -10,8 +10,11 @@ of the scoring) and measures, per draw:
   of its class;
 * ``median_f1`` (target >= 0.95; an unmatched support has F1 0);
 * ``radius_err_m`` per column and engaged column: found radius minus the true
-  mean surface radius (flutes averaged) at the height of the step's section
-  (target: all within 1 cm); ``radius_err_vs_mean_m`` against the shaft mean;
+  mean surface radius (flutes averaged) at the height the objects table gives for
+  it (``z_min + radius_height_m``: the section the column was found in, the main
+  one or the low one of the broken columns; the step's section height when the
+  table has none) (target: all within 1 cm; a tapered shaft has no other single
+  radius); ``radius_err_vs_mean_m`` against the shaft mean;
 * ``tilt_err_deg`` per leaning column: angle between the fitted cylinder
   axis (``axis_x/y/z`` of the objects table) and the true axis (target 0.3 deg);
 * ``pier_box_err_m`` per pier: largest difference of the sorted horizontal box
@@ -74,7 +77,8 @@ def score_supports(
         Step 2a's per-point support ids and its objects table (``instance``,
         ``class``, ``radius_m``, ``axis_x/y/z``, ``box_length_m``, ``box_width_m``).
     section_height
-        z of the step's section (the radius reference is taken there).
+        z of the step's section (the radius reference is taken there for a column
+        whose row has no ``radius_height_m``).
     attic_mask
         Points the step put in the attic (optional).
 
@@ -136,11 +140,15 @@ def score_supports(
             continue
         f = fobj.loc[p]
         if row["class"] in ("column", "engaged_column") and np.isfinite(f["radius_m"]):
-            z = (
-                section_height
-                if np.isfinite(section_height)
-                else 0.5 * (row["z_bottom"] + row["z_top"])
-            )
+            # the height radius_m is measured at (a column found in the low section has
+            # its radius there, metres down a tapered shaft from the main section)
+            z = float(f.get("z_min", np.nan)) + float(f.get("radius_height_m", np.nan))
+            if not np.isfinite(z):
+                z = (
+                    section_height
+                    if np.isfinite(section_height)
+                    else 0.5 * (row["z_bottom"] + row["z_top"])
+                )
             radius_err[i] = float(f["radius_m"] - radius_at(row, z))
             radius_err_mean[i] = float(f["radius_m"] - row["radius_mean_m"])
             if row["tilt_deg"] > 0:
