@@ -553,8 +553,10 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
         to such an axis are biased by up to that offset where the points are denser on
         one side.  The free taper takes up an axis leaning by the taper angle (the
         distances to it taper by another slope, draw 22: +0.018 m/m for -0.022), which
-        moves the radius where the window is cut by the base.  None with fewer than 20
-        points or a failed start circle.
+        moves the radius where the window is cut by the base.  The start circle's
+        radius when the cone runs off (radius beyond twice the circle's, centre beyond
+        half its radius from the axis); None with fewer than 20 points or a failed start
+        circle.
     """
     if len(rel) < 20:
         return None
@@ -594,6 +596,8 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
         if new.sum() < 20 or np.array_equal(new, keep):
             break
         keep = new
+    if not 0.0 < x[2] < 2.0 * circle.radius or np.hypot(x[0], x[1]) > 0.5 * x[2]:
+        return float(circle.radius)  # diverged (a few points of no shaft): the circle's
     return float(x[2])
 
 
