@@ -118,6 +118,35 @@ def test_radius_low_on_a_fluted_shaft_about_an_axis_leaning_by_the_taper() -> No
     assert abs(out["radius_m"] - mean_radius(z_ref)) <= 0.003
 
 
+#: Draw 0's aisle columns: r 0.197 -> 0.155 m over 3.6 m, entasis 1.6 mm.
+AISLE = ColumnShape(0.197, 0.155, entasis_m=0.0016)
+AISLE_Z = (0.17, 3.76)
+
+
+def test_radius_of_a_column_seen_on_one_side_with_a_chair_touching_it() -> None:
+    """Draw 0, column 20: 161 points in the window of its section (1.16 m), half of the
+    shaft seen, and a pew's points 8 cm off its surface on the other side: a circle
+    through them all moved its centre 3.6 cm towards the pew and gave +2.6 cm."""
+    rng = np.random.default_rng(0)
+    n = 1400
+    z = rng.uniform(*AISLE_Z, n)
+    a = np.deg2rad(rng.uniform(60.0, 240.0, n))
+    t = (z - AISLE_Z[0]) / (AISLE_Z[1] - AISLE_Z[0])
+    r = AISLE.radius(t) + rng.normal(0, 0.0035, n)
+    shaft = np.c_[r * np.cos(a), r * np.sin(a), z]
+    m = 40
+    ap = np.deg2rad(rng.uniform(-60.0, 30.0, m))
+    zp = rng.uniform(0.9, 1.4, m)
+    rp = 0.27 + rng.normal(0, 0.0035, m)
+    pew = np.c_[rp * np.cos(ap), rp * np.sin(ap), zp]
+    pts = np.vstack([shaft, pew])
+    z_ref = 1.16
+    true = float(AISLE.radius((z_ref - AISLE_Z[0]) / (AISLE_Z[1] - AISLE_Z[0])))
+    out = column_shape(pts, np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, 1.0]), 0.18, 0.03,
+                       z_ref=z_ref)  # fmt: skip
+    assert abs(out["radius_m"] - true) <= 0.003
+
+
 @pytest.mark.slow
 def test_column_radii_within_1_cm_on_draw_22() -> None:
     """Draw 22 (nave, fluted and tapered shafts): the columns found in the low section

@@ -545,18 +545,21 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     -------
     float or None
         The radius at the reference height: a circle with a free centre in the plane
-        normal to the axis whose radius changes linearly with ``dh`` (the local taper,
-        started from ``slope``, the start circle from the points moved radially by
-        ``-slope x dh``), refitted once without the points more than three robust
-        standard deviations off it.  The free centre takes up an axis a few millimetres
-        off the shaft's (a cone fitted to a shaft seen mostly from one side): distances
-        to such an axis are biased by up to that offset where the points are denser on
-        one side.  The free taper takes up an axis leaning by the taper angle (the
-        distances to it taper by another slope, draw 22: +0.018 m/m for -0.022), which
-        moves the radius where the window is cut by the base.  The start circle's
-        radius when the cone runs off (radius beyond twice the circle's, centre beyond
-        half its radius from the axis); None with fewer than 20 points or a failed start
-        circle.
+        normal to the axis whose radius changes linearly with ``dh`` (the local taper),
+        robust (soft-L1 at the points' robust standard deviation), started from
+        ``slope`` and the circle of the points moved radially by ``-slope x dh``
+        (without the points whose distance to the axis is more than three robust
+        standard deviations off: a chair, a sign or a fence touching the shaft would
+        pull the circle's centre), refitted once without the points
+        more than three robust standard deviations off the cone.  The free centre
+        takes up an axis a few millimetres off the shaft's (a cone fitted to a shaft
+        seen mostly from one side): distances to such an axis are biased by up to that
+        offset where the points are denser on one side.  The free taper takes up an
+        axis leaning by the taper angle (the distances to it taper by another slope,
+        draw 22: +0.018 m/m for -0.022), which moves the radius where the window is
+        cut by the base.  The start circle's radius when the cone runs off (radius
+        beyond twice the circle's, centre beyond half its radius from the axis); None
+        with fewer than 20 points or a failed start circle.
     """
     if len(rel) < 20:
         return None
@@ -569,31 +572,42 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
-    circle = fit_circle(np.c_[moved @ e1, moved @ e2])
-    if not circle:
-        return None
     from scipy.optimize import least_squares
 
+    def spread(r: Array) -> tuple[Array, float]:  # |offsets from the median|, robust sigma
+        off = np.abs(r - np.median(r))
+        return off, 1.4826 * float(np.median(off))
+
+    # a chair or a sign touching the shaft: out by the distances to the axis (a circle
+    # through it moves its centre towards it)
+    off, sigma = spread(d - slope * dh)
+    keep = off <= max(3.0 * sigma, 1e-4)
+    if keep.sum() < 20:
+        keep[:] = True
+    start = np.c_[moved @ e1, moved @ e2]
+    circle = fit_circle(start[keep])
+    if not circle:
+        return None
     xy = np.c_[rel @ e1, rel @ e2]
-    keep = np.ones(len(xy), dtype=bool)
     x = np.r_[circle.center, circle.radius, slope]
     for _ in range(2):  # the cone, then again without the points 3 sigma off it
+        if keep.sum() < 20:
+            break
         q, h = xy[keep], dh[keep]
 
         def res(v: Array, q: Array = q, h: Array = h) -> Array:
             return np.hypot(q[:, 0] - v[0], q[:, 1] - v[1]) - (v[2] + v[3] * h)
 
         try:
-            sol = least_squares(res, x, method="lm")
+            sol = least_squares(res, x, loss="soft_l1", f_scale=max(sigma, 1e-3))
         except (ValueError, np.linalg.LinAlgError):
             return float(x[2])
         if not sol.success or not np.all(np.isfinite(sol.x)):
             return float(x[2])
         x = sol.x
-        r_all = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - (x[2] + x[3] * dh)
-        sigma = 1.4826 * float(np.median(np.abs(r_all - np.median(r_all))))
-        new = np.abs(r_all - np.median(r_all)) <= max(3.0 * sigma, 1e-4)
-        if new.sum() < 20 or np.array_equal(new, keep):
+        off, sigma = spread(np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - (x[2] + x[3] * dh))
+        new = off <= max(3.0 * sigma, 1e-4)
+        if np.array_equal(new, keep):
             break
         keep = new
     if not 0.0 < x[2] < 2.0 * circle.radius or np.hypot(x[0], x[1]) > 0.5 * x[2]:
