@@ -546,50 +546,44 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     float or None
         The radius at the reference height: a circle with a free centre in the plane
         normal to the axis whose radius changes linearly with ``dh`` (the local taper),
-        robust (soft-L1 at the points' robust standard deviation), started from
-        ``slope`` and the circle of the points moved radially by ``-slope x dh``
-        (without the points whose distance to the axis is more than three robust
-        standard deviations off: a chair, a sign or a fence touching the shaft would
-        pull the circle's centre), refitted once without the points
-        more than three robust standard deviations off the cone.  The free centre
-        takes up an axis a few millimetres off the shaft's (a cone fitted to a shaft
-        seen mostly from one side): distances to such an axis are biased by up to that
-        offset where the points are denser on one side.  The free taper takes up an
-        axis leaning by the taper angle (the distances to it taper by another slope,
-        draw 22: +0.018 m/m for -0.022), which moves the radius where the window is
-        cut by the base.  The start circle's radius when the cone runs off (radius
-        beyond twice the circle's, centre beyond half its radius from the axis); None
-        with fewer than 20 points or a failed start circle.
+        robust (soft-L1 at the robust standard deviation of the distances), started on
+        the axis at the median distance (a chair, a sign or a fence touching the shaft
+        pulls a least-squares circle's centre towards it; leaving out the points far
+        from the axis leaves out the far side of a shaft seen mostly from one side when
+        the axis is a few centimetres off), refitted once without the points more than
+        three robust standard deviations off the cone.  The free centre takes up an
+        axis off the shaft's (a cone fitted to a shaft seen mostly from one side):
+        distances to such an axis are biased by up to that offset where the points are
+        denser on one side.  The free taper takes up an axis leaning by the taper angle
+        (the distances to it taper by another slope, draw 22: +0.018 m/m for -0.022),
+        which moves the radius where the window is cut by the base.  The median
+        distance to the axis when the cone runs off (radius beyond twice that, centre
+        beyond half its radius from the axis); None with fewer than 20 points.
     """
     if len(rel) < 20:
         return None
     if len(rel) > 4000:
         keep = np.linspace(0, len(rel) - 1, 4000).astype(np.intp)
         rel, dh = rel[keep], dh[keep]
-    d = np.linalg.norm(rel, axis=1)
-    d = np.where(d > 0, d, 1e-12)
-    moved = rel * ((d - slope * dh) / d)[:, None]
-    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(axis, e1)
     from scipy.optimize import least_squares
 
     def spread(r: Array) -> tuple[Array, float]:  # |offsets from the median|, robust sigma
         off = np.abs(r - np.median(r))
         return off, 1.4826 * float(np.median(off))
 
-    # a chair or a sign touching the shaft: out by the distances to the axis (a circle
-    # through it moves its centre towards it)
-    off, sigma = spread(d - slope * dh)
-    keep = off <= max(3.0 * sigma, 1e-4)
-    if keep.sum() < 20:
-        keep[:] = True
-    start = np.c_[moved @ e1, moved @ e2]
-    circle = fit_circle(start[keep])
-    if not circle:
-        return None
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
     xy = np.c_[rel @ e1, rel @ e2]
-    x = np.r_[circle.center, circle.radius, slope]
+    # start: the cone about the axis (a chair or a sign touching the shaft pulls a
+    # least-squares circle's centre towards it; a robust loss from the axis does not)
+    on_axis = np.hypot(xy[:, 0], xy[:, 1]) - slope * dh
+    _, sigma = spread(on_axis)
+    r0 = float(np.median(on_axis))
+    if not r0 > 0.0:
+        return None
+    keep = np.ones(len(xy), dtype=bool)
+    x = np.r_[0.0, 0.0, r0, slope]
     for _ in range(2):  # the cone, then again without the points 3 sigma off it
         if keep.sum() < 20:
             break
@@ -610,8 +604,8 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
         if np.array_equal(new, keep):
             break
         keep = new
-    if not 0.0 < x[2] < 2.0 * circle.radius or np.hypot(x[0], x[1]) > 0.5 * x[2]:
-        return float(circle.radius)  # diverged (a few points of no shaft): the circle's
+    if not 0.0 < x[2] < 2.0 * r0 or np.hypot(x[0], x[1]) > 0.5 * x[2]:
+        return r0  # diverged (a few points of no shaft): the distance to the axis
     return float(x[2])
 
 
