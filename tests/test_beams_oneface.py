@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from grid_planes import grid_plane
 from pyheracles.beams import StraightFacet, segment_beams
 from pyheracles.beams.cuboids import fit_one_face_cuboid
 from pyheracles.beams.facets import face_noise_thresholds
@@ -20,15 +21,6 @@ from pyheracles.geometry.neighbours import build_tree
 from pyheracles.segment.regiongrow import RegionGrowingParams, region_growing
 
 NOISE = 0.002
-
-
-def _plane(origin, u, v, lu, lv, step, rng):
-    """Grid points on the rectangle ``origin + [0, lu] u + [0, lv] v``, with noise."""
-    a = np.arange(0.0, lu, step)
-    b = np.arange(0.0, lv, step)
-    ga, gb = np.meshgrid(a, b, indexing="ij")
-    p = origin + ga.reshape(-1, 1) * u + gb.reshape(-1, 1) * v
-    return p + rng.normal(scale=NOISE, size=p.shape)
 
 
 def _sparse(origin, u, v, lu, lv, n, rng):
@@ -51,7 +43,7 @@ def _attic(rng):
     parts, labels = [], []
     for i, x in enumerate(RAFTER_X, start=1):
         lo = np.array([x - WIDTH / 2, 0.0, UNDER])
-        under = _plane(lo, X, Y, WIDTH, LENGTH, 0.008, rng)
+        under = grid_plane(lo, X, Y, WIDTH, LENGTH, 0.008, rng)
         sides = [
             _sparse(lo, Y, Z, LENGTH, DEPTH, 120, rng),
             _sparse(lo + WIDTH * X, Y, Z, LENGTH, DEPTH, 120, rng),
@@ -62,10 +54,10 @@ def _attic(rng):
     # boarding on the rafters' tops: seen between them only
     edges = [-1.2, *[e for x in RAFTER_X for e in (x - WIDTH / 2, x + WIDTH / 2)], 1.2]
     for a, b in zip(edges[::2], edges[1::2], strict=True):
-        p = _plane(np.array([a, 0.0, UNDER + DEPTH]), X, Y, b - a, LENGTH, 0.012, rng)
+        p = grid_plane(np.array([a, 0.0, UNDER + DEPTH]), X, Y, b - a, LENGTH, 0.012, rng)
         parts.append(p)
         labels.append(np.zeros(len(p), int))
-    floor = _plane(np.array([-1.5, -0.5, 0.0]), X, Y, 3.0, LENGTH + 1.0, 0.03, rng)
+    floor = grid_plane(np.array([-1.5, -0.5, 0.0]), X, Y, 3.0, LENGTH + 1.0, 0.03, rng)
     parts.append(floor)
     labels.append(np.zeros(len(floor), int))
     return np.vstack(parts), np.concatenate(labels)
@@ -156,7 +148,7 @@ def test_angle_threshold_cannot_bridge_the_edges_of_noisy_narrow_faces():
             (lo, Y, Z, 2.0, 0.12),
             (lo + 0.08 * X, Y, Z, 2.0, 0.12),
         ):
-            p = _plane(o, u, v, lu, lv, 0.008, rng)
+            p = grid_plane(o, u, v, lu, lv, 0.008, rng)
             parts.append(p + rng.normal(scale=0.003, size=p.shape))
     xyz = np.vstack(parts)
     angle, curv = face_noise_thresholds(xyz, build_tree(xyz), 24, np.random.default_rng(0))

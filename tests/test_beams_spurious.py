@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from grid_planes import grid_plane
 from pyheracles.beams import segment_beams
 from pyheracles.beams.cuboids import join_pieces
 from pyheracles.beams.deflection import BoxIndex
@@ -17,17 +18,7 @@ from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult
 from pyheracles.beams.segment import extend_along_axis
 from pyheracles.synthetic.families.roof_frame import member_between
 
-NOISE = 0.002
 X, Y, Z = np.eye(3)
-
-
-def _plane(origin, u, v, lu, lv, step, rng):
-    """Grid points on the rectangle ``origin + [0, lu] u + [0, lv] v``, with noise."""
-    a = np.arange(0.0, lu, step)
-    b = np.arange(0.0, lv, step)
-    ga, gb = np.meshgrid(a, b, indexing="ij")
-    p = origin + ga.reshape(-1, 1) * u + gb.reshape(-1, 1) * v
-    return p + rng.normal(scale=NOISE, size=p.shape)
 
 
 def _lying_timber(rng):
@@ -40,9 +31,9 @@ def _lying_timber(rng):
     reached the wall and joined the frame through it.
     """
     w, h, length = 0.23, 0.11, 1.4
-    top = _plane(np.array([0.0, -w / 2, h]), X, Y, length, w, 0.008, rng)
-    side = _plane(np.array([0.0, -w / 2, 0.0]), X, Z, length, h, 0.008, rng)
-    floor = _plane(np.array([-2.5, -1.0, 0.0]), X, Y, 6.0, 2.0, 0.01, rng)
+    top = grid_plane(np.array([0.0, -w / 2, h]), X, Y, length, w, 0.008, rng)
+    side = grid_plane(np.array([0.0, -w / 2, 0.0]), X, Z, length, h, 0.008, rng)
+    floor = grid_plane(np.array([-2.5, -1.0, 0.0]), X, Y, 6.0, 2.0, 0.01, rng)
     under = (floor[:, 0] > -0.01) & (floor[:, 0] < length + 0.01) & (np.abs(floor[:, 1]) < w / 2)
     xyz = np.vstack([top, side, floor[~under]])
     deep = h + 0.012  # the hidden underside estimated 1.2 cm too low
@@ -71,8 +62,8 @@ def test_a_face_going_on_past_the_end_still_lengthens_the_beam():
     rng = np.random.default_rng(1)
     xyz, cub = _lying_timber(rng)
     more = [
-        _plane(np.array([1.4, -0.115, 0.11]), X, Y, 1.6, 0.23, 0.008, rng),
-        _plane(np.array([1.4, -0.115, 0.0]), X, Z, 1.6, 0.11, 0.008, rng),
+        grid_plane(np.array([1.4, -0.115, 0.11]), X, Y, 1.6, 0.23, 0.008, rng),
+        grid_plane(np.array([1.4, -0.115, 0.0]), X, Z, 1.6, 0.11, 0.008, rng),
     ]
     xyz = np.vstack([xyz, *more])
     free = np.ones(len(xyz), dtype=bool)
@@ -159,18 +150,7 @@ def _truss_on_the_floor():
 
 
 def test_timber_on_the_floor_by_a_tie_beam_is_not_in_the_frame():
-    beams = _truss_on_the_floor()
-    xyz = np.vstack([b.corners() for b in beams])
-    labels = np.repeat(np.arange(1, len(beams) + 1), 8).astype(np.int32)
-    result = BeamResult(
-        labels=labels,
-        beams=tuple(beams),
-        facet_labels=np.zeros(len(xyz), np.int32),
-        straight_labels=np.zeros(len(xyz), np.int32),
-        facet_beam=np.zeros(0, np.int32),
-        params=BeamParams(),
-    )
-    frame = analyse_frame(xyz, result, FrameParams())
+    frame = _frame_of(_truss_on_the_floor())
     assert any(set(jt.members) == {1, 10} for jt in frame.joints)  # it touches the tie
     assert frame.in_frame[:9].all()
     assert not frame.in_frame[9:].any()
@@ -189,7 +169,7 @@ def test_segment_beams_leaves_loose_timber_to_the_remainder():
             (c0, u, b.width),
             (c0 + b.height * v, u, b.width),
         ):
-            p = _plane(o, a, d, b.length, size, 0.015, rng)
+            p = grid_plane(o, a, d, b.length, size, 0.015, rng)
             pts.append(p)
             truth.append(np.full(len(p), i))
     xyz, truth = np.vstack(pts), np.concatenate(truth)
