@@ -192,3 +192,19 @@ def test_column_radii_within_1_cm_on_draw_23() -> None:
     m = score_supports(sim, found.instance, found.objects, section_height=found.section_height)
     assert len(m["radius_err_m"]) >= 15
     assert m["radius_err_max_m"] <= 0.01, m["radius_err_m"]
+    # the candidates are still checked with their section's cylinder: a 325-point
+    # piece beside column 24 (0.31 m circle) is no column (it split column 24)
+    assert "ring_split" not in m["failure_modes"]
+
+
+@pytest.mark.slow
+def test_thin_columns_judged_by_their_cylinders_on_draw_32() -> None:
+    """Draw 32: an engaged column carrying nothing, 0.157 m as the cylinder of its
+    section's shaft points and 0.148 m at its section, beside columns of 0.51 m: the
+    rule for posts (0.3 x the carrying columns' radius) was set on the cylinders."""
+    from pyheracles.building import segment_building
+    from pyheracles.synthetic.families import simulate
+
+    sim = simulate("supports", 32)
+    _, found, _, _ = segment_building(sim.clouds["cloud"].xyz)
+    assert not any("thinner than" in n for n in found.notes), found.notes

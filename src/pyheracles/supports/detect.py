@@ -225,8 +225,9 @@ def detect_supports_checked(
         cidx, crho, cpts = kept
         row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
         if sh["class"] != "pier" and not (
-            abs(row["radius_m"] - sh["radius"]) <= max(0.05, 0.3 * sh["radius"])
-            and row["radius_m"] >= RING_RADIUS_M[0]
+            abs(row.get("cylinder_radius_m", row["radius_m"]) - sh["radius"])
+            <= max(0.05, 0.3 * sh["radius"])
+            and row.get("cylinder_radius_m", row["radius_m"]) >= RING_RADIUS_M[0]
         ):  # the 3D cylinder disagrees with the section circle (or failed, or is a pole
             # or a scaffold tube thinner than any column): not a column
             notes.append(
@@ -264,6 +265,7 @@ def detect_supports_checked(
             f"{edges} pier candidate{'s are wall edges' if edges > 1 else ' is a wall edge'} "
             "(joined to a wall in most of the height: jambs, reveals): not supports"
         )
+    rows = [{k: v for k, v in r.items() if k != "cylinder_radius_m"} for r in rows]
     objects = pd.DataFrame(rows) if rows else empty_table()
     if len(objects):
         objects.insert(0, "instance", np.arange(1, len(objects) + 1, dtype=np.int32))
@@ -283,19 +285,21 @@ def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
     """Indices of the columns carrying nothing thinner than ``THIN_FREE_SHARE`` x the
     radius of the thickest column that carries, or, when none carries (a roofless
     ruin), of the thickest column (draw 17: the stems of pulpits, 0.12 m, among broken
-    columns of 1.2 m)."""
-    carried = [r["radius_m"] for r, c in zip(rows, carries, strict=True)
-               if c and r["class"] == "column" and np.isfinite(r["radius_m"])]  # fmt: skip
+    columns of 1.2 m).  Radii of the cylinders of the section's shaft points
+    (``cylinder_radius_m``) where the rows have them: the rule was set on those."""
+    radius = [r.get("cylinder_radius_m", r["radius_m"]) for r in rows]
+    carried = [x for r, x, c in zip(rows, radius, carries, strict=True)
+               if c and r["class"] == "column" and np.isfinite(x)]  # fmt: skip
     if not carried:  # a roofless ruin: the thickest column standing, carrying nothing
-        carried = [r["radius_m"] for r in rows
-                   if r["class"] == "column" and np.isfinite(r["radius_m"])]  # fmt: skip
+        carried = [x for r, x in zip(rows, radius, strict=True)
+                   if r["class"] == "column" and np.isfinite(x)]  # fmt: skip
     if not carried:
         return set()
     limit = THIN_FREE_SHARE * max(carried)
     return {
         k
-        for k, (r, c) in enumerate(zip(rows, carries, strict=True))
-        if not c and r["class"] == "column" and r["radius_m"] < limit
+        for k, (r, x, c) in enumerate(zip(rows, radius, carries, strict=True))
+        if not c and r["class"] == "column" and x < limit
     }
 
 

@@ -251,6 +251,10 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
     dict
         The row; columns as in the module docstring.  Piers get ``base_top_m`` /
         ``capital_bottom_m`` from the reach of their layers beyond the fitted box.
+        A column's row also holds ``cylinder_radius_m``, the radius of the cylinder
+        of the section's shaft points (the detection's checks of a candidate: does its
+        cylinder agree with its section circle, is it thinner than the columns that
+        carry; not a column of the objects table).
 
     Notes
     -----
@@ -308,6 +312,7 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
                 x=float(cyl.point[0]),
                 y=float(cyl.point[1]),
                 radius_m=cyl.radius,
+                cylinder_radius_m=cyl.radius,
                 radius_height_m=z_ref - row["z_min"],
                 axis_x=float(cyl.axis[0]),
                 axis_y=float(cyl.axis[1]),
@@ -627,7 +632,7 @@ def implausible(row: dict, pts: Array, sc: Scales) -> str:
         margin = slack
         what = "box"
     else:
-        size = 2.0 * float(row["radius_m"])
+        size = 2.0 * float(row.get("cylinder_radius_m", row["radius_m"]))
         margin = slack + 0.5 * size
         what = "cylinder"
     if not np.isfinite(size):
