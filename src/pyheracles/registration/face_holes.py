@@ -35,6 +35,7 @@ __all__ = [
     "occupancy",
     "open_holes",
     "raster_cell",
+    "sides_bounded",
     "unseen_sides_from_hole",
 ]
 
@@ -77,7 +78,8 @@ def open_holes(
     49: 9 of 38 exterior windows so).  Such a region holds an opening where what lies
     behind the face (glass, reveals: ``behind``, the ``(K, 2)`` face coordinates of
     points between the face band and ``max_recess_m`` behind it, one array per side of
-    the face) fills it, and the face bounds it on at least half of its edge cells.
+    the face) fills it, and the face bounds it on three of its four sides
+    (:func:`sides_bounded`).
     """
     open_empty = ~occ & (lab == 0)
     out = []
@@ -89,17 +91,44 @@ def open_holes(
         rec = np.zeros(occ.shape, bool)
         rec[ij[ok, 0], ij[ok, 1]] = True
         rec = ndimage.binary_closing(rec, structure=np.ones((3, 3))) | rec
-        comp, _ = ndimage.label(open_empty & rec)
+        comp, n = ndimage.label(open_empty & rec)
+        area = np.bincount(comp.ravel(), minlength=n + 1) * cell * cell
         for k, sl in enumerate(ndimage.find_objects(comp), start=1):
-            if sl is None:
+            if sl is None or area[k] < p.min_width_m * p.min_height_m * 0.5:
                 continue
-            m = comp == k
-            if m.sum() * cell * cell < p.min_width_m * p.min_height_m * 0.5:
-                continue
-            edge = ndimage.binary_dilation(m) & ~m
-            if occ[edge].mean() >= 0.5:
+            # the region's box grown by one cell: its edge cells lie within
+            win = tuple(slice(max(s.start - 1, 0), s.stop + 1) for s in sl)
+            mk = comp[win] == k
+            if sides_bounded(mk, occ[win]) >= 3:
+                m = np.zeros(occ.shape, bool)
+                m[win] = mk
                 out.append(m)
     return out
+
+
+def sides_bounded(region: NDArray[np.bool_], occ: NDArray[np.bool_], share: float = 0.5) -> int:
+    """How many of a region's four sides the face bounds.
+
+    A side (left, right, bottom, top of the raster) is bounded when, for at least
+    ``share`` of the region's rows (columns), the cell just beyond the region's last
+    cell on that side is face (``occ``).  An opening whose wall is unscanned under its
+    sill is bounded on three sides; a patch of clutter or shadow open to unscanned
+    space on two or more sides is not (an interior view: 23 such patches besides 17
+    windows on a small church).
+    """
+    n = 0
+    for axis in (0, 1):
+        r = np.moveaxis(region, axis, 0)
+        o = np.moveaxis(occ, axis, 0)
+        lines = np.flatnonzero(r.any(axis=0))
+        first = r[:, lines].argmax(axis=0)
+        last = r.shape[0] - 1 - r[::-1, lines].argmax(axis=0)
+        for idx in (first - 1, last + 1):
+            ok = (idx >= 0) & (idx < r.shape[0])
+            hit = np.zeros(len(lines), bool)
+            hit[ok] = o[idx[ok], lines[ok]]
+            n += int(hit.mean() >= share)
+    return n
 
 
 def holes_by_reach(uv: Array, cell: float) -> tuple[NDArray, Array, int]:
