@@ -149,3 +149,22 @@ def test_the_draws_that_showed_it_register(seed: int) -> None:
     sim, clouds, tp, res = register_church(seed)
     assert error_at_interior(sim, clouds["interior"], res.T_target_source) < 0.015
     assert tp.details["n_recess_verified"] >= 3
+
+
+def test_an_open_hole_is_bounded_by_the_face_on_three_sides() -> None:
+    """A clerestory window over an unscanned wall is bounded left, right and above; a
+    patch of shadow at the face's corner (an interior: a small church had 23 such
+    patches besides its 17 windows) is bounded on two sides only."""
+    from pyheracles.registration.face_holes import sides_bounded
+
+    occ = np.ones((20, 30), bool)
+    occ[:, :8] = False  # nothing scanned under the sill
+    window = np.zeros_like(occ)
+    window[8:12, 0:20] = True  # the window's empty cells run down into it
+    occ[8:12, 8:20] = False
+    assert sides_bounded(window, occ) == 3
+    occ2 = np.ones((20, 30), bool)
+    occ2[:10, :10] = False  # unscanned corner
+    patch = np.zeros_like(occ2)
+    patch[:10, :10] = True
+    assert sides_bounded(patch, occ2) == 2
