@@ -19,6 +19,7 @@ from pyheracles.supports.piers import (
     MAX_NARROW_LAYERS,
     foot_on_wall_line,
     narrow_share,
+    rect_coords,
 )
 from pyheracles.supports.profile import (
     attached_share,
@@ -290,8 +291,7 @@ def offset(xy: Array, sh: dict) -> tuple[Array, Array]:
     q = xy - sh["centre"]
     if sh["class"] in ("column", "engaged_column"):
         return np.hypot(q[:, 0], q[:, 1]) - sh["radius"], np.arctan2(q[:, 1], q[:, 0])
-    c, s = np.cos(sh["angle"]), np.sin(sh["angle"])
-    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    u, v = rect_coords(xy, sh["centre"], sh["angle"]).T
     a, b = sh["half"]
     return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)
 

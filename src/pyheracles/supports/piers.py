@@ -9,11 +9,18 @@ from scipy.spatial import cKDTree
 from pyheracles.supports.core import Array, Island, trimmed_rms
 
 
+def rect_coords(xy: Array, centre: Array, angle: float) -> Array:
+    """``(N, 2)`` coordinates of points along and across a rectangle turned by ``angle``
+    (radians) about its ``centre``."""
+    c, s = np.cos(angle), np.sin(angle)
+    q = xy - centre
+    return np.c_[q @ np.array([c, s]), q @ np.array([-s, c])]
+
+
 def rect_rms(xy: Array, centre: Array, angle: float, size: Array) -> tuple[float, Array]:
     """RMS distance to a rectangle whose edges are re-estimated as medians (2 rounds)."""
     c, s = np.cos(angle), np.sin(angle)
-    q = xy - centre
-    uv = np.c_[q @ [c, s], q @ [-s, c]]
+    uv = rect_coords(xy, centre, angle)
     lo, hi = -size / 2, size / 2
     for _ in range(2):
         d = np.stack(
@@ -127,9 +134,7 @@ def wall_fragment(xy: Array, isl: Island, tree: cKDTree, band_m: float) -> bool:
     others = np.setdiff1d(np.asarray(near, dtype=np.intp), isl.index, assume_unique=False)
     if len(others) < need:
         return False
-    c, s = np.cos(isl.angle), np.sin(isl.angle)
-    q = xy[others] - isl.center
-    u, v = np.abs(q @ np.array([c, s])), np.abs(q @ np.array([-s, c]))
+    u, v = np.abs(rect_coords(xy[others], isl.center, isl.angle)).T
     beyond_u = (u > half[0]) & (u <= half[0] + CLEARANCE_M) & (v <= half[1] + band_m)
     beyond_v = (v > half[1]) & (v <= half[1] + CLEARANCE_M) & (u <= half[0] + band_m)
     return max(int(beyond_u.sum()), int(beyond_v.sum())) >= need
@@ -158,9 +163,7 @@ def in_wall_line(isl: Island, wall_xy: Array, tol: float, bin_m: float) -> bool:
     if len(wall_xy) == 0:
         return False
     half = np.maximum(isl.size / 2, 1e-6)
-    c, s = np.cos(isl.angle), np.sin(isl.angle)
-    q = wall_xy - isl.center
-    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    u, v = rect_coords(wall_xy, isl.center, isl.angle).T
     need = max(2, int(np.ceil(WALL_LINE_COVER_M / bin_m)))
     for across, along, h_across, h_along in ((v, u, half[1], half[0]), (u, v, half[0], half[1])):
         beyond = (np.abs(along) > h_along + tol) & (np.abs(along) <= h_along + WALL_LINE_GAP_M)
@@ -191,9 +194,7 @@ def wall_alongside(isl: Island, wall_xy: Array, bin_m: float) -> bool:
     if len(wall_xy) == 0:
         return False
     half = np.maximum(isl.size / 2, 1e-6)
-    c, s = np.cos(isl.angle), np.sin(isl.angle)
-    q = wall_xy - isl.center
-    u, v = q @ np.array([c, s]), q @ np.array([-s, c])
+    u, v = rect_coords(wall_xy, isl.center, isl.angle).T
     for along, across, h_along, h_across in ((u, v, half[0], half[1]), (v, u, half[1], half[0])):
         for side in (-1.0, 1.0):
             off = side * across - h_across
@@ -345,9 +346,7 @@ def narrow_share(xy: Array, z: Array, sh: dict, tol: float, cell: float) -> floa
     of fewer than 10 points do not count)."""
     if len(z) < 20:
         return 0.0
-    c, s = np.cos(sh["angle"]), np.sin(sh["angle"])
-    q = xy - sh["centre"]
-    uv = np.c_[q @ np.array([c, s]), q @ np.array([-s, c])]
+    uv = rect_coords(xy, sh["centre"], sh["angle"])
     layer = np.floor((z - z.min()) / cell).astype(np.intp)
     inner = (1.0 - NARROW_SHARE) * np.asarray(sh["half"], dtype=np.float64) - tol
     narrow, counted = 0, 0
