@@ -57,9 +57,10 @@ This module keeps that structure and fixes the failures the thesis reports:
    in most of its height layers, or standing in a wall face that runs on beyond both
    its ends (or round a corner) at its foot, is a wall edge (a jamb, the wall
    between two windows); a support carrying nothing must be ``min_free_height_m``
-   tall (broken columns), a pier carrying nothing a prism as wide as its section
-   (not a lying drum), a column carrying nothing at least 0.3 x the radius of the
-   thickest column that carries (not a post or a pulpit's stem); everything
+   tall (broken columns), a pier a prism as wide as its section, whatever it
+   carries (not a lying drum, nor a pulpit's tub on its post), a column carrying
+   nothing at least 0.3 x the radius of the thickest column that carries (not a
+   post or a pulpit's stem); everything
    rejected goes back to the pool.
 6. **Primitives** -- cylinder (axis, radius, height, RMS) for columns and
    engaged columns, oriented box (dimensions, RMS) for piers.

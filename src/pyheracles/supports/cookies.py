@@ -160,8 +160,9 @@ def extract_support(
     ``height_band(z_lo, z_hi)`` gives the indices of the points of ``p`` between two
     heights (a slice of the sorted heights): with it, a pier candidate whose foot stands
     in a wall face (:func:`~pyheracles.supports.piers.foot_on_wall_line`) is a wall
-    piece.  A pier that carries nothing must be a prism as wide as its section
-    (:func:`~pyheracles.supports.piers.narrow_share`: a lying drum is not).  Sets
+    piece.  A pier, carrying something or not, must be a prism as wide as its section
+    (:func:`~pyheracles.supports.piers.narrow_share`: a lying drum is not, nor the tub
+    of a pulpit on its post, which "carries" the ceiling above it).  Sets
     ``sh["carries"]`` (whether a carried surface was found above it).
 
     From the floor under it (off by the floor's own noise) up to the underside of what it
@@ -266,10 +267,10 @@ def extract_support(
         return None  # a chair, a sign board, a fence post: not a support
     if (
         sh["class"] == "pier"
-        and not sh["carries"]
         and narrow_share(cpts[:, :2], cpts[:, 2], sh, sc.tol, cell) > MAX_NARROW_LAYERS
-    ):
-        return None  # carries nothing and is no prism: a lying drum, debris
+    ):  # no prism, whatever it carries: a lying drum, debris, the tub of a pulpit on
+        # its post under a ceiling (draw 4: three tubs cut by the section were piers)
+        return None
     return cidx, crho, cpts
 
 

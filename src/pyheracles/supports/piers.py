@@ -328,14 +328,14 @@ def foot_on_wall_line(
     return False
 
 
-#: A pier carrying nothing (a broken pier) must be a prism as wide as its section: a
+#: A pier (broken or carrying) must be a prism as wide as its section: a
 #: layer whose points stop short of both ends of the section rectangle along one of its
 #: axes, by more than this share of its half size (and a surface tolerance) at each
 #: end, is narrower than the section, as the end of a lying drum is above and below the
-#: chord the section cut (an occlusion shadow cuts one end).
+#: chord the section cut, or the post under the tub of a pulpit (an occlusion shadow
+#: cuts one end).
 NARROW_SHARE = 0.2
-#: Largest share of the height layers of a pier carrying nothing narrower than its
-#: section.
+#: Largest share of the height layers of a pier narrower than its section.
 MAX_NARROW_LAYERS = 0.3
 
 
