@@ -212,3 +212,53 @@ def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> Non
     monkeypatch.setattr(surface, "_solve_band_cg", spy)
     surface.inpaint(values)
     assert np.array_equal(seen["band"], unknown & ~far_expected)
+
+
+def test_band_solve_and_float32_padding_are_the_whole_raster_formulas() -> None:
+    """The band's system is gathered at the band cells only, and the sampler casts the
+    padded raster once: the same numbers as the raster-wide versions (issue 17, tiles on
+    a diagonal)."""
+    from scipy import sparse
+
+    from pyheracles.groundfilters import surface
+
+    rng = np.random.default_rng(5)
+    values = _terrain((40, 55))
+    band = np.zeros(values.shape, dtype=bool)
+    band[3:12, 0:9] = True  # touching the raster's edge
+    band[20:26, 30:50] = True
+    band[39, 54] = True  # a corner cell
+    # the raster-wide assembly: padded rasters, ids per cell
+    rows, cols = band.shape
+    ur, uc = np.nonzero(band)
+    deg = np.zeros(ur.size)
+    rhs = np.zeros(ur.size)
+    ids = -np.ones(band.shape, dtype=int)
+    ids[ur, uc] = np.arange(ur.size)
+    entries = {(i, i): 0.0 for i in range(ur.size)}
+    for i, (r, c) in enumerate(zip(ur, uc, strict=True)):
+        for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+            nr, nc = r + dr, c + dc
+            if 0 <= nr < rows and 0 <= nc < cols:
+                deg[i] += 1
+                if band[nr, nc]:
+                    entries[(i, ids[nr, nc])] = -1.0
+                else:
+                    rhs[i] += values[nr, nc]
+    for i in range(ur.size):
+        entries[(i, i)] = deg[i]
+    keys = list(entries)
+    matrix = sparse.csr_matrix(
+        ([entries[k] for k in keys], ([k[0] for k in keys], [k[1] for k in keys])),
+        shape=(ur.size, ur.size),
+    )
+    start = values[ur, uc] + rng.normal(0, 0.5, ur.size)
+    expected = surface._jacobi_cg(matrix, rhs, start, 1.0 / deg)
+    trial = values.copy()
+    trial[ur, uc] = start
+    assert np.allclose(surface._solve_band_cg(trial, band), expected, atol=1e-9)
+    for shape in [(1, 1), (2, 5), (7, 2), (3, 3), (40, 55)]:
+        v = rng.normal(size=shape) * 100.0
+        assert np.array_equal(
+            surface._pad_linear_as(v, np.float32), surface._pad_linear(v).astype(np.float32)
+        )

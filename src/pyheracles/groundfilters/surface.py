@@ -158,6 +158,31 @@ def _pad_linear(values: NDArray[np.float64]) -> NDArray[np.float64]:
     return padded
 
 
+
+def _pad_linear_as(values: NDArray[np.float64], dtype: np.dtype) -> NDArray:
+    """``_pad_linear(values).astype(dtype)`` without the float64 copy of the raster: the
+    interior is cast once into the padded raster and only the border is computed in
+    float64 (the same values to the bit). The refinement samples rasters of a whole
+    mosaic's bounding box several times; two full copies per call added up."""
+    rows, cols = values.shape
+    if rows < 3 or cols < 3 or np.dtype(dtype) == np.float64:
+        return _pad_linear(values).astype(dtype, copy=False)
+    out = np.empty((rows + 2, cols + 2), dtype=dtype)
+    out[1:-1, 1:-1] = values
+    top = np.pad(values[:2], ((0, 0), (1, 1)), mode="edge")
+    bottom = np.pad(values[-2:], ((0, 0), (1, 1)), mode="edge")
+    first = 2 * top[0] - top[1]
+    last = 2 * bottom[1] - bottom[0]
+    out[0] = first
+    out[-1] = last
+    left1 = np.concatenate([[first[1]], values[:, 0], [last[1]]])
+    left2 = np.concatenate([[first[2]], values[:, 1], [last[2]]])
+    right1 = np.concatenate([[first[-2]], values[:, -1], [last[-2]]])
+    right2 = np.concatenate([[first[-3]], values[:, -2], [last[-3]]])
+    out[:, 0] = 2 * left1 - left2
+    out[:, -1] = 2 * right1 - right2
+    return out
+
 class RasterSampler:
     """Bilinear sampling of rasters of one :class:`Grid` at fixed points, weights computed once.
 
@@ -224,7 +249,7 @@ class RasterSampler:
         ``at``: indices of the points wanted (None = all); each value is the one of the
         whole call, bit for bit.
         """
-        flat = _pad_linear(values).ravel().astype(self.dtype, copy=False)
+        flat = _pad_linear_as(values, self.dtype).ravel()
         k, w = self._k00, self._cols
         wc, wr = self._wc, self._wr
         if at is not None:
@@ -462,27 +487,29 @@ def _solve_band_cg(values: NDArray[np.float64], band: NDArray[np.bool_]) -> NDAr
     """Harmonic values of the ``band`` cells, every other cell of ``values`` fixed.
 
     Conjugate gradients on the 5-point Laplacian (symmetric positive definite), started
-    from the values the band cells already hold (the coarse surface).
+    from the values the band cells already hold (the coarse surface). The system is
+    gathered at the band cells and their neighbours only (no raster-sized temporaries:
+    around tiles on a diagonal the band is a small part of a mostly empty raster).
     """
-    width = band.shape[1] + 2
+    rows, cols = band.shape
     ur, uc = np.nonzero(band)
-    at = (ur + 1) * width + (uc + 1)
-    fixed = np.pad(np.where(band, 0.0, values), 1).ravel()
-    inside = np.pad(np.ones(band.shape), 1).ravel()
-    ids = np.full(fixed.size, -1, dtype=np.intp)
-    ids[at] = np.arange(ur.size)
-    deg = np.zeros(ur.size)
-    rhs = np.zeros(ur.size)
+    at = ur * cols + uc  # row-major, so sorted: a neighbour's band id by binary search
+    n = ur.size
+    deg = np.zeros(n)
+    rhs = np.zeros(n)
     row_parts, col_parts = [], []
     for dr, dc in _FOUR:
-        nb = at + dr * width + dc
-        deg += inside[nb]
-        rhs += fixed[nb]
-        other = ids[nb]
-        ok = other >= 0
-        row_parts.append(np.flatnonzero(ok))
-        col_parts.append(other[ok])
-    n = ur.size
+        nr, nc = ur + dr, uc + dc
+        inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
+        deg += inside
+        idx = np.flatnonzero(inside)
+        flat = nr[idx] * cols + nc[idx]
+        pos = np.minimum(np.searchsorted(at, flat), n - 1)
+        in_band = at[pos] == flat
+        fixed = idx[~in_band]
+        rhs[fixed] += values[nr[fixed], nc[fixed]]
+        row_parts.append(idx[in_band])
+        col_parts.append(pos[in_band])
     r = np.concatenate([np.arange(n), *row_parts])
     c = np.concatenate([np.arange(n), *col_parts])
     d = np.concatenate([deg, -np.ones(r.size - n)])
