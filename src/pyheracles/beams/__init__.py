@@ -4,7 +4,9 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
 ``axedetect``, ``beamSeg``).  The pipeline reads top-down:
 
 0. clouds denser than ``thin_spacing_m`` are thinned at random for the
-   geometry (normals of over-dense noisy scans are noise); labels come back to
+   geometry (normals of over-dense noisy scans are noise), each part to that
+   spacing by its own density, so the sparse far faces are kept whole
+   (:func:`~pyheracles.beams.thinning.thin_to_spacing`); labels come back to
    every input point at step 5;
 1. a coarse (voxel-level) region growing finds the *wide surfaces* (floor,
    walls, boarding: wider than the widest beam face in every direction,
@@ -28,7 +30,9 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    at half the band's density
    profile (the thesis asked the user for the beam width); a band that is a
    strip of a wider coplanar surface (boarding between rafters) is dropped
-   (:func:`~pyheracles.beams.surfaces.wide_surface_bands`);
+   (:func:`~pyheracles.beams.surfaces.wide_surface_bands`), but not one that
+   stands proud of the coplanar surface beside it (the undersides of common
+   rafters side by side, with the boarding between them behind);
 3. :func:`group_facets` joins straight facets into beams: parallel axes and a
    shared edge (boundary-to-boundary contact over at least half of the shorter
    facet, not centroid distance), narrowest faces first and never into a

@@ -60,7 +60,10 @@ class BeamParams:
         metres; ``None``: 3 times the median facet plane RMS, at least 1 cm.
     thin_spacing_m
         Clouds denser than this median point spacing (metres) are randomly
-        thinned to it for the facets, bands and cuboids (``None``: never); the
+        thinned to it for the facets, bands and cuboids (``None``: never),
+        each part by its own spacing: the parts already sparser (faces far
+        from the stations) are kept whole
+        (:func:`~pyheracles.beams.thinning.thin_to_spacing`); the
         labels are then given to every input point from the cuboids.  8 mm
         keeps at least 5 points across the narrowest face and lets 24
         neighbours span about 2.5 cm, well above the 2-5 mm noise of

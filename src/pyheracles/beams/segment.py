@@ -29,6 +29,7 @@ from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
 from pyheracles.beams.surfaces import cuboid_contacts, resting_loose, wide_surface_bands
+from pyheracles.beams.thinning import thin_to_spacing
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import DegenerateGeometryError, InputError
 from pyheracles.geometry.neighbours import as_xyz, build_tree, point_spacing
@@ -376,8 +377,9 @@ def segment_beams(
     spacing = point_spacing(full, tree)
     keep = np.arange(len(full))
     if p.thin_spacing_m is not None and spacing < p.thin_spacing_m:
-        fraction = (spacing / p.thin_spacing_m) ** 2
-        keep = np.flatnonzero(gen.random(len(full)) < fraction)
+        # to the target spacing where the scan is denser; sparse parts kept whole
+        keep = thin_to_spacing(full, tree, p.thin_spacing_m, gen)
+    if len(keep) < len(full):
         arr = full[keep]
         tree = build_tree(arr)
         spacing = point_spacing(arr, tree)

@@ -23,12 +23,23 @@ from scipy.spatial import cKDTree
 
 from pyheracles.beams.model import BeamCuboid, StraightFacet
 
-__all__ = ["cuboid_contacts", "plane_occupancy", "resting_loose", "wide_surface_bands"]
+__all__ = [
+    "cuboid_contacts",
+    "plane_occupancy",
+    "resting_loose",
+    "room_side",
+    "stands_proud",
+    "wide_surface_bands",
+]
 
 #: Probes per side across the window beside an edge.
 _N_ACROSS = 10
 #: A side whose probes find points at least this often is a surface going on.
 WIDE_OCCUPANCY = 0.5
+#: Share of the far cloud on one side of a plane that makes that side the room's.
+ROOM_RATIO = 2.0
+#: Every this-many-th cloud point is looked at beside a covered edge (:func:`stands_proud`).
+PROUD_STRIDE = 8
 
 
 def plane_occupancy(
@@ -98,6 +109,106 @@ def _local_spacing(tree: cKDTree, pts: NDArray[np.float64]) -> float:
     return float(np.median(d[:, 1]))
 
 
+def room_side(
+    probe: NDArray[np.float64],
+    centre: NDArray[np.float64],
+    normal: NDArray[np.float64],
+    depth_m: float,
+    ratio: float = ROOM_RATIO,
+) -> float:
+    """Which side of a plane the frame was scanned from: +1 along ``normal``, -1, or 0.
+
+    The room side holds at least ``ratio`` times more of the cloud (``probe``,
+    a sample of it) farther than ``depth_m`` from the plane than the other: the
+    frame is scanned from inside the room, and behind a face on the hull (the
+    underside of a rafter, boarding, a wall plate) the cloud ends within a
+    beam depth.  0 where neither side does (a plane inside the room).
+    """
+    h = (probe - centre) @ normal
+    pos, neg = int(np.sum(h > depth_m)), int(np.sum(h < -depth_m))
+    if pos >= ratio * max(neg, 1):
+        return 1.0
+    if neg >= ratio * max(pos, 1):
+        return -1.0
+    return 0.0
+
+
+def stands_proud(
+    tree: cKDTree,
+    facet: StraightFacet,
+    front: float,
+    s_window: tuple[float, float],
+    t_range: tuple[float, float],
+    depth_m: float,
+    margin_m: float,
+    step_m: float = 0.1,
+) -> bool:
+    """Whether what lies beside a band's edge is behind its plane, not in front of it.
+
+    The undersides of common rafters side by side are coplanar, and the next
+    one lies within a few decimetres of the band's edge, as the next strip of
+    boarding does beyond a rafter.  What tells a member's face from a strip of
+    boarding is what lies between them, off the plane: beside a rafter's
+    underside, the boarding between the rafters and the rafter's own sides
+    lie *behind* the plane (away from the room), along the whole length;
+    beside a strip of boarding, the rafter bounding it lies *in front*.
+
+    Parameters
+    ----------
+    tree
+        KD-tree on the cloud.
+    facet
+        The band.
+    front
+        +1 / -1: the room's side of the plane along ``facet.normal``
+        (:func:`room_side`).
+    s_window
+        Offsets across the band (from its centre, along
+        ``normal x axis``, metres) of the strip beside the edge.
+    t_range
+        The band's extent along its axis, metres from its centre.
+    depth_m
+        Points farther than this from the plane are not counted (the deepest
+        member), metres.
+    margin_m
+        Points nearer than this to the plane are on it (the coplanar surface
+        itself), metres.
+    step_m
+        Bins along the length for the coverage, metres.
+
+    Returns
+    -------
+    bool
+        True when the points behind the plane cover at least half of the
+        band's length and more than twice what the points in front cover
+        (members crossing in front, a purlin under the rafters, cover a short
+        stretch each).
+    """
+    across = np.cross(facet.normal, facet.axis)
+    across /= np.linalg.norm(across)
+    s_mid = 0.5 * (s_window[0] + s_window[1])
+    half_s = 0.5 * abs(s_window[1] - s_window[0])
+    radius = float(np.hypot(half_s, depth_m)) + step_m
+    t = np.arange(t_range[0], t_range[1] + radius, radius)
+    centres = facet.centre + t[:, None] * facet.axis + s_mid * across
+    hits = tree.query_ball_point(centres, r=radius, workers=1)
+    idx = np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits] + [[]]))
+    idx = idx.astype(np.int64)
+    rel = tree.data[idx] - facet.centre
+    tt, ss, hh = rel @ facet.axis, rel @ across, front * (rel @ facet.normal)
+    sel = (tt >= t_range[0]) & (tt <= t_range[1])
+    sel &= (ss >= min(s_window)) & (ss <= max(s_window))
+    sel &= (np.abs(hh) > margin_m) & (np.abs(hh) <= depth_m)
+    n_bins = max(int(np.ceil((t_range[1] - t_range[0]) / step_m)), 1)
+
+    def cover(mask: NDArray[np.bool_]) -> float:
+        bins = np.floor((tt[mask] - t_range[0]) / step_m).astype(np.int64)
+        return len(np.unique(bins)) / n_bins
+
+    behind, ahead = cover(sel & (hh < 0)), cover(sel & (hh > 0))
+    return behind >= 0.5 and behind > 2.0 * ahead
+
+
 def wide_surface_bands(
     tree: cKDTree,
     xyz: NDArray[np.float64],
@@ -106,6 +217,7 @@ def wide_surface_bands(
     window_m: float = 0.5,
     occupancy: float = WIDE_OCCUPANCY,
     parallel_deg: float = 5.0,
+    depth_m: float = 0.6,
 ) -> NDArray[np.bool_]:
     """Which straight facets are strips of a wider surface (boarding, floor, wall).
 
@@ -128,6 +240,11 @@ def wide_surface_bands(
         to the band's within this angle, degrees: the next strip of boarding
         beyond a rafter runs along the band, while the coplanar members of a
         truss beside a tie (posts, rafters, struts) cross it.
+    depth_m
+        The deepest member section, metres: a covered side does not make the
+        band a strip when what lies between them within this depth is behind
+        the band's plane, away from the room (:func:`stands_proud`: the next
+        common rafter's underside beyond the boarding between them).
 
     Returns
     -------
@@ -146,6 +263,9 @@ def wide_surface_bands(
         owner[f.index] = i
     axes = np.array([f.axis for f in facets]).reshape(-1, 3)
     cos_par = np.cos(np.radians(parallel_deg))
+    probe = xyz[:: max(1, len(xyz) // 50000)]
+    # what lies beside a covered edge: a point per 10 cm of length is enough
+    sparse_tree: cKDTree | None = None
     for i, f in enumerate(facets):
         parallel = np.append(np.abs(axes @ f.axis) >= cos_par, True)  # [-1]: in no facet
         parallel[i] = False
@@ -165,6 +285,7 @@ def wide_surface_bands(
             continue
         offs = start + (np.arange(_N_ACROSS) + 0.5) * (width - start) / _N_ACROSS
         step = max(0.1, 2.0 * radius)
+        front = None  # the room's side of the band's plane, when first needed
         for sign, edge in ((1.0, s_hi), (-1.0, s_lo)):
             occ = plane_occupancy(
                 tree,
@@ -177,7 +298,17 @@ def wide_surface_bands(
                 step,
                 counts,
             )
-            if occ >= occupancy:
+            if occ < occupancy:
+                continue
+            if front is None:
+                front = room_side(probe, f.centre, f.normal, depth_m)
+            if sparse_tree is None:
+                sparse_tree = cKDTree(xyz[::PROUD_STRIDE])
+            window = (float(edge + sign * start), float(edge + sign * width))
+            proud = front != 0 and stands_proud(
+                sparse_tree, f, front, window, (float(t_lo), float(t_hi)), depth_m, 0.5 * radius
+            )
+            if not proud:
                 out[i] = True
                 break
     return out
