@@ -183,6 +183,7 @@ def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> Non
     from scipy import ndimage
 
     from pyheracles.groundfilters import surface
+    from pyheracles.groundfilters.pyramid import halve
 
     rng = np.random.default_rng(5)
     for shape in ((301, 403), (1, 7), (6, 1), (9, 9)):
@@ -197,7 +198,7 @@ def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> Non
             expected = np.where(known.any(axis=(1, 3)),
                                 np.where(known, blocks, 0.0).sum(axis=(1, 3))
                                 / known.sum(axis=(1, 3)), np.nan)  # fmt: skip
-        assert np.array_equal(surface._halve(v), expected, equal_nan=True)
+        assert np.array_equal(halve(v), expected, equal_nan=True)
     unknown = rng.uniform(size=(200, 150)) < 0.97  # more than EXACT_MAX_UNKNOWN
     values = np.where(unknown, np.nan, 1.0)
     d = ndimage.distance_transform_cdt(unknown, metric="chessboard")
@@ -262,3 +263,28 @@ def test_band_solve_and_float32_padding_are_the_whole_raster_formulas() -> None:
         assert np.array_equal(
             surface._pad_linear_as(v, np.float32), surface._pad_linear(v).astype(np.float32)
         )
+
+
+def test_coarse_fill_is_the_interleaved_bilinear_formula() -> None:
+    """The compiled coarse fill of the pyramid is the two interleaved bilinear passes
+    (rows, then columns; edges replicated) it replaces, to the bit, in the unknown cells
+    only."""
+    from pyheracles.groundfilters.pyramid import fill_from_coarse
+
+    def axis0(a):
+        prev = np.concatenate([a[:1], a[:-1]])
+        nxt = np.concatenate([a[1:], a[-1:]])
+        out = np.empty((2 * a.shape[0],) + a.shape[1:])
+        out[0::2] = 0.75 * a + 0.25 * prev
+        out[1::2] = 0.75 * a + 0.25 * nxt
+        return out
+
+    rng = np.random.default_rng(9)
+    for shape in ((301, 403), (1, 7), (6, 1), (9, 9), (1, 1)):
+        coarse = rng.normal(size=((shape[0] + 1) // 2, (shape[1] + 1) // 2)) * 10.0
+        unknown = rng.uniform(size=shape) < 0.7
+        expected = np.full(shape, -1.0)
+        expected[unknown] = axis0(axis0(coarse).T).T[: shape[0], : shape[1]][unknown]
+        got = np.full(shape, -1.0)
+        fill_from_coarse(got, unknown, coarse)
+        assert np.array_equal(got, expected)

@@ -16,6 +16,7 @@ from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
 from pyheracles.errors import InputError
+from pyheracles.groundfilters.pyramid import fill_from_coarse, halve
 
 if TYPE_CHECKING:  # pragma: no cover
     from affine import Affine
@@ -425,33 +426,13 @@ def inpaint(values: NDArray[np.float64]) -> NDArray[np.float64]:
     return _inpaint_coarse_to_fine(out, unknown)
 
 
-def _halve(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Mean of the known (finite) cells of each 2 x 2 block; NaN where a block has none.
-
-    The four quarters are summed as strided views, ``(a00 + a01) + (a10 + a11)`` (the
-    order of a reduction over the block axes, so the result is the same to the bit),
-    without the (rows, 2, cols, 2) temporaries: a diagonal mosaic's raster is mostly
-    empty and this runs at every level of the pyramid.
-    """
-    rows, cols = values.shape
-    padded = np.full((rows + rows % 2, cols + cols % 2), np.nan)
-    padded[:rows, :cols] = values
-    quarters = [padded[i::2, j::2] for i in (0, 1) for j in (0, 1)]
-    known = [np.isfinite(q) for q in quarters]
-    zero = [np.where(k, q, 0.0) for q, k in zip(quarters, known, strict=True)]
-    total = (zero[0] + zero[1]) + (zero[2] + zero[3])
-    count = known[0].astype(np.intp) + known[1] + known[2] + known[3]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / count, np.nan)
-
-
 def _inpaint_coarse_to_fine(
     out: NDArray[np.float64], unknown: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
     """:func:`inpaint` of a raster with many unknown cells (see there)."""
     from scipy import ndimage
 
-    coarse = inpaint(_halve(np.where(unknown, np.nan, out)))
+    coarse = inpaint(halve(np.where(unknown, np.nan, out)))
     # far: no known cell within INPAINT_BAND_CELLS (chessboard), i.e. outside the square
     # dilation of the known cells (two separable passes, cheaper than a distance map)
     size = 2 * INPAINT_BAND_CELLS + 1
@@ -460,27 +441,10 @@ def _inpaint_coarse_to_fine(
     band = unknown & ~far
     # bilinear value of the coarse surface at every unknown cell's centre: the value of
     # the far cells, the boundary and the starting point of the band solve
-    out[unknown] = _upsample_half(coarse, out.shape)[unknown]
+    fill_from_coarse(out, unknown, coarse)
     if band.any():
         out[band] = _solve_band_cg(out, band)
     return out
-
-
-def _upsample_half(coarse: NDArray[np.float64], shape: tuple[int, int]) -> NDArray[np.float64]:
-    """Bilinear value of a raster of half resolution at the centres of the fine cells of
-    ``shape`` (edges replicated): a fine cell centre lies a quarter of a coarse cell from
-    the nearest coarse centre, so each axis is ``0.75 * nearest + 0.25 * next``."""
-
-    def axis0(a: NDArray[np.float64]) -> NDArray[np.float64]:
-        prev = np.concatenate([a[:1], a[:-1]])
-        nxt = np.concatenate([a[1:], a[-1:]])
-        out = np.empty((2 * a.shape[0],) + a.shape[1:])
-        out[0::2] = 0.75 * a + 0.25 * prev
-        out[1::2] = 0.75 * a + 0.25 * nxt
-        return out
-
-    up = axis0(axis0(coarse).T).T
-    return up[: shape[0], : shape[1]]
 
 
 def _solve_band_cg(values: NDArray[np.float64], band: NDArray[np.bool_]) -> NDArray[np.float64]:
