@@ -355,14 +355,68 @@ _BLOCKWISE_MAX_SHARE = 0.5
 
 def _boxwise(run, active: NDArray[np.bool_], halo: int, out: NDArray) -> NDArray:
     """``out`` with ``run(window)`` written at the core of every box of
-    :func:`_active_blocks` (``run`` takes a window of slices, returns the window's raster)."""
-    for core, window in _active_blocks(active, halo):
+    :func:`_active_blocks` (``run`` takes a window of slices, returns the window's raster).
+
+    Boxes whose windows overlap are run together when one window over both costs fewer
+    cells (:func:`_merged_windows`); each box's core is still written from a window that
+    holds it with its halo, so the result is the same."""
+    boxes = list(_active_blocks(active, halo))
+    for window, cores in _merged_windows(boxes, halo, active.shape):
         res = run(window)
-        inner = tuple(
-            slice(c.start - w.start, c.stop - w.start) for c, w in zip(core, window, strict=True)
-        )
-        out[core] = res[inner]
+        for core in cores:
+            inner = tuple(
+                slice(c.start - w.start, c.stop - w.start)
+                for c, w in zip(core, window, strict=True)
+            )
+            out[core] = res[inner]
     return out
+
+
+#: Most boxes merged (each greedy step scores every pair of groups).
+_MERGE_MAX_BOXES = 256
+
+
+def _merged_windows(boxes, halo: int, shape: tuple[int, int]):
+    """Groups of boxes run in one window: (window, [cores]) pairs.
+
+    Greedy: the pair of groups whose joint window (the bounding box of their cores grown
+    by ``halo``) saves the most cells against their two windows is merged, until no pair
+    saves any. A tile cut by :func:`_active_blocks` into slivers, each with its own halo,
+    goes back to one window (8 AHN3 tiles on a diagonal: 18 windows of 1.18 M cells in
+    all, 8 of 0.91 M).
+    """
+    rows, cols = shape
+    ext = np.array(
+        [(c[0].start, c[0].stop, c[1].start, c[1].stop) for c, _ in boxes], dtype=np.int64
+    ).reshape(-1, 4)
+    cores = [[c] for c, _ in boxes]
+
+    def area(r0, r1, c0, c1):
+        h = np.minimum(rows, r1 + halo) - np.maximum(0, r0 - halo)
+        w = np.minimum(cols, c1 + halo) - np.maximum(0, c0 - halo)
+        return h * w
+
+    while 1 < len(cores) <= _MERGE_MAX_BOXES:
+        own = area(*ext.T)
+        lo_r, hi_r = np.minimum.outer(ext[:, 0], ext[:, 0]), np.maximum.outer(ext[:, 1], ext[:, 1])
+        lo_c, hi_c = np.minimum.outer(ext[:, 2], ext[:, 2]), np.maximum.outer(ext[:, 3], ext[:, 3])
+        gain = own[:, None] + own[None, :] - area(lo_r, hi_r, lo_c, hi_c)
+        np.fill_diagonal(gain, 0)
+        i, j = np.unravel_index(int(np.argmax(gain)), gain.shape)
+        if gain[i, j] <= 0:
+            break
+        joint = [lo_r[i, j], hi_r[i, j], lo_c[i, j], hi_c[i, j]]
+        keep = [k for k in range(len(cores)) if k not in (i, j)]
+        cores = [cores[k] for k in keep] + [cores[i] + cores[j]]
+        ext = np.vstack([ext[keep], np.array(joint, dtype=np.int64)[None, :]])
+    windows = [
+        (
+            slice(max(0, r0 - halo), min(rows, r1 + halo)),
+            slice(max(0, c0 - halo), min(cols, c1 + halo)),
+        )
+        for r0, r1, c0, c1 in ext.tolist()
+    ]
+    return list(zip(windows, cores, strict=True))
 
 
 def _active_blocks(active: NDArray[np.bool_], halo: int):
