@@ -40,6 +40,9 @@ WIDE_OCCUPANCY = 0.5
 ROOM_RATIO = 2.0
 #: Every this-many-th cloud point is looked at beside a covered edge (:func:`stands_proud`).
 PROUD_STRIDE = 8
+#: Points nearer than this to a band's plane are on it (:func:`stands_proud`), metres:
+#: half the narrowest member (``BeamParams.min_beam_width_m``, 4 cm).
+PROUD_MARGIN_M = 0.02
 
 
 def plane_occupancy(
@@ -182,7 +185,10 @@ def stands_proud(
         True when the points behind the plane cover at least half of the
         band's length and more than twice what the points in front cover
         (members crossing in front, a purlin under the rafters, cover a short
-        stretch each).
+        stretch each), and the plane next to the edge (the first band width,
+        at least 5 cm, of the strip) is empty over at least half of the
+        length: a strip of a wall at the floor goes on flush, and the tilt of
+        so narrow a strip's plane puts the rest of the wall behind it.
     """
     across = np.cross(facet.normal, facet.axis)
     across /= np.linalg.norm(across)
@@ -206,7 +212,14 @@ def stands_proud(
         return len(np.unique(bins)) / n_bins
 
     behind, ahead = cover(sel & (hh < 0)), cover(sel & (hh > 0))
-    return behind >= 0.5 and behind > 2.0 * ahead
+    if behind < 0.5 or behind <= 2.0 * ahead:
+        return False
+    # beside a member's face its plane is empty up to the next member; a strip
+    # of a wall at the floor, or of the floor at a wall, is flush with the rest
+    out = np.sign(s_window[1] - s_window[0]) * (ss - s_window[0])  # from the window's start
+    near = (out >= 0.0) & (out <= max(facet.width, 0.05))
+    flush = (tt >= t_range[0]) & (tt <= t_range[1]) & near & (np.abs(hh) <= margin_m)
+    return cover(flush) < 0.5
 
 
 def wide_surface_bands(
@@ -305,8 +318,9 @@ def wide_surface_bands(
             if sparse_tree is None:
                 sparse_tree = cKDTree(xyz[::PROUD_STRIDE])
             window = (float(edge + sign * start), float(edge + sign * width))
+            margin = max(0.5 * radius, PROUD_MARGIN_M)
             proud = front != 0 and stands_proud(
-                sparse_tree, f, front, window, (float(t_lo), float(t_hi)), depth_m, 0.5 * radius
+                sparse_tree, f, front, window, (float(t_lo), float(t_hi)), depth_m, margin
             )
             if not proud:
                 out[i] = True
