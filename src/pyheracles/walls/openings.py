@@ -7,7 +7,7 @@ from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening
 
-__all__ = ["face_edges", "face_spacing", "head_sill", "merge_lights", "refine_edges"]
+__all__ = ["face_edges", "face_spacing", "head_reach", "head_sill", "merge_lights", "refine_edges"]
 
 
 def merge_lights(openings: list[Opening], max_mullion_m: float,
@@ -93,18 +93,22 @@ def refine_edges(
     beyond are no edge of it), inwards within two cells and the face's point spacing
     (:func:`face_spacing`), as the grid's hole of a sparse face reaches into
     the gaps between its points along the edge, up to the inner face's wider hole
-    through a splayed reveal; an edge nothing measures keeps the grid's value.
+    through a splayed reveal; a head also upwards as far as :func:`head_reach` lets
+    the face measure it (the apex of a pointed head, closed in the grid); an edge
+    nothing measures keeps the grid's value.
     """
     per_face = [uz[face_of == f] for f in np.unique(face_of)]
     found = np.array([face_edges(q, u0, u1, z0, z1, c, at_foot, jambs)
                       for q in per_face]).reshape(-1, 4)  # fmt: skip
-    reach = np.array([2 * c + face_spacing(q) for q in per_face])
+    spacing = np.array([face_spacing(q) for q in per_face])
+    reach = 2 * c + spacing
+    up = np.maximum(2 * c, [head_reach(c, sp) for sp in spacing])  # outwards, the head
     grid = (u0, u1, z0, z1)
     out = []
     for k, (pick, inward) in enumerate(((np.max, 1), (np.min, -1), (np.max, 1), (np.min, -1))):
         col = found[:, k]
         move = inward * (col - grid[k])  # > 0: into the opening
-        ok = np.isfinite(col) & (move >= -2 * c) & (move <= reach)
+        ok = np.isfinite(col) & (move >= (-up if k == 3 else -2 * c)) & (move <= reach)
         out.append(float(pick(col[ok])) if np.any(ok) else grid[k])
     return out[0], out[1], out[2], out[3]
 
@@ -149,11 +153,11 @@ def face_edges(
     lo_z = z1 - 0.45 * h if at_foot else z0 + 0.25 * h
     hi_z = z1 - 0.1 * h
     r0 = r1 = nan
+    sp = face_spacing(uz)
     if jambs is not None:
         lo_z = max(lo_z, jambs[0]) if at_foot else max(z0 + 0.05 * h, jambs[0])
         hi_z = min(hi_z, jambs[1])
     if hi_z - lo_z >= 2 * c or jambs is None:  # too short a band: the grid edges stand
-        sp = face_spacing(uz)
         band_z = (uz[:, 1] > lo_z) & (uz[:, 1] < hi_z)
         reach = 2 * c + 2 * sp  # the next column out, for the gap at the jamb
         left = uz[band_z & (uz[:, 0] < uc) & (uz[:, 0] > u0 - reach)]
@@ -165,7 +169,7 @@ def face_edges(
             r0 = _row_innermost(left, row, np.maximum, u0 - 2 * c)
             r1 = _row_innermost(right, row, np.minimum, u1 + 2 * c)
     m0, m1 = (u0 if np.isnan(r0) else r0), (u1 if np.isnan(r1) else r1)
-    s0, s1 = head_sill(uz, m0, m1, z0, z1, c, step, at_foot)
+    s0, s1 = head_sill(uz, m0, m1, z0, z1, c, step, at_foot, sp)
     return r0, r1, s0, s1
 
 
@@ -209,6 +213,22 @@ def _row_innermost(uz: Array, c: float, innermost: np.ufunc, limit: float) -> fl
     return float(sign * edge)
 
 
+def head_reach(c: float, spacing: float) -> float:
+    """How far above the grid's head (m) a face with point ``spacing`` (m) may put the
+    head of an opening, on a grid of cell ``c`` (m): a cell, and up to three more less
+    twice the spacing.
+
+    The narrow apex of a pointed head is closed in the grid (a gap a cell or two
+    wide, stray returns of the soffit near the plane): church draws 0, 2, 3, 6 and 9
+    had pointed heads 6-14 cm short, their faces' points seen at the apex but beyond
+    a cell above the grid's head.  A face measures the head from the lowest point of
+    each column, up to its spacing above the edge, the highest of them taken: a
+    sparse face (the splayed inner face of a high window, a face scanned from afar)
+    would put it that much too high, so it is allowed less.
+    """
+    return c + max(0.0, 3.0 * c - 2.0 * spacing)
+
+
 def head_sill(
     uz: Array,
     u0: float,
@@ -218,22 +238,25 @@ def head_sill(
     c: float,
     step: float,
     at_foot: bool,
+    spacing: float = 0.0,
 ) -> tuple[float, float]:
     """Sill and head of an opening from one face's points below and above its centre
     (NaN: not measured).
 
     The head is the highest of the lowest points of the columns (``step`` wide, each
-    the lowest of it and its two neighbours) across the central band, no higher than a
-    cell above the grid's head: a pointed or round
-    head peaks at its centre, and the lowest point of the whole band lies on its
-    flanks, short of the apex.  The sill is the median over the columns of their
-    highest point below the centre (mixed pixels standing on a sill, on the plane,
-    move it little; doors reaching the wall's foot are not measured there).
+    the lowest of it and its two neighbours) across the central band, no higher than
+    :func:`head_reach` above the grid's head (``spacing``: the face's point spacing,
+    m): a pointed or round head peaks at its centre, and the lowest point of the whole
+    band lies on its flanks, short of the apex.  The sill is the median over the
+    columns of their highest point below the centre (mixed pixels standing on a sill,
+    on the plane, move it little; doors reaching the wall's foot are not measured
+    there).
     """
     nan = float("nan")
     uc, zc, w = 0.5 * (u0 + u1), 0.5 * (z0 + z1), u1 - u0
+    reach = head_reach(c, spacing)
     band_u = np.abs(uz[:, 0] - uc) < max(0.05 * w, c, step)
-    up = band_u & (uz[:, 1] > zc) & (uz[:, 1] < z1 + 2 * c)
+    up = band_u & (uz[:, 1] > zc) & (uz[:, 1] < z1 + reach + c)
     down = band_u & (uz[:, 1] < zc) & (uz[:, 1] > z0 - 2 * c)
     head = sill = nan
     if np.count_nonzero(up) >= 3:
@@ -243,7 +266,7 @@ def head_sill(
         low = uz[up, 1][order][first]
         if len(low) >= 3:  # lower envelope over three columns: a sparse column's
             low = np.minimum(np.minimum(low[:-2], low[1:-1]), low[2:])  # lowest is high
-        head = min(float(low.max()), z1 + c)
+        head = min(float(low.max()), z1 + reach)
     if not at_foot and np.count_nonzero(down) >= 3:
         col = np.floor(uz[down, 0] / step).astype(np.int64)
         order = np.lexsort((-uz[down, 1], col))
