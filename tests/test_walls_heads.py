@@ -85,3 +85,30 @@ def test_head_reach_shrinks_with_the_spacing() -> None:
     assert head_reach(0.05, 0.02) == pytest.approx(0.16)
     assert head_reach(0.05, 0.075) == pytest.approx(0.05)
     assert head_reach(0.05, 0.3) == pytest.approx(0.05)
+
+
+def test_sill_of_a_sparse_face_is_not_half_a_spacing_low() -> None:
+    """Church draw 1 (south window 3, a 1.16 m wall, its inner face 7.8 cm between points
+    around the window) and draw 4 (north 15, east 22: 15-19 cm): sills came out 6-9 cm
+    low.  Each column's highest point under the sill is anywhere up to the spacing below
+    it, and their median half a spacing low; the sill is now put as a jamb is (a high
+    order statistic, or mid-gap for lines at fixed heights), no higher than half a
+    spacing above the median.  Columns of points at draw 1's spacing, at random phases,
+    30 times: the median error was 2.7 cm."""
+    from pyheracles.walls.openings import head_sill
+
+    sp, sill, head, w = 0.078, 3.29, 6.46, 0.84
+    errors = []
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        u = np.arange(-1.0, 1.0, sp) + rng.uniform(0, sp)
+        z = np.arange(0.0, 8.0, sp)
+        g = np.array([(a, b) for a in u for b in z + rng.uniform(0, sp)])  # any phase
+        g += rng.normal(0.0, 0.002, g.shape)
+        hole = (np.abs(g[:, 0]) < w / 2) & (g[:, 1] > sill) & (g[:, 1] < head)
+        pts = g[~hole]
+        z0 = float(pts[(np.abs(pts[:, 0]) < w / 2) & (pts[:, 1] < sill), 1].max())  # grid's
+        got, _ = head_sill(pts, -w / 2, w / 2, z0, head, 0.05, 1.5 * sp, False, sp)
+        errors.append(got - sill)
+    assert float(np.median(np.abs(errors))) < 0.02
+    assert max(errors) < 0.02  # never raised into the opening

@@ -247,10 +247,14 @@ def head_sill(
     the lowest of it and its two neighbours) across the central band, no higher than
     :func:`head_reach` above the grid's head (``spacing``: the face's point spacing,
     m): a pointed or round head peaks at its centre, and the lowest point of the whole
-    band lies on its flanks, short of the apex.  The sill is the median over the
-    columns of their highest point below the centre (mixed pixels standing on a sill,
-    on the plane, move it little; doors reaching the wall's foot are not measured
-    there).
+    band lies on its flanks, short of the apex.  The sill is put by the columns'
+    highest points below the centre as a jamb is by its rows' innermost points
+    (:func:`_row_innermost`: scan lines crossing the sill at varying heights, or at
+    fixed heights with the gap to the next line below), no higher than half the
+    spacing above their median: each column's highest point is up to the spacing below
+    the sill (church draws 1 and 4: sills of sparse faces 6-9 cm low from the median),
+    and mixed pixels standing on a sill, on the plane, move the median little (doors
+    reaching the wall's foot are not measured there).
     """
     nan = float("nan")
     uc, zc, w = 0.5 * (u0 + u1), 0.5 * (z0 + z1), u1 - u0
@@ -271,5 +275,8 @@ def head_sill(
         col = np.floor(uz[down, 0] / step).astype(np.int64)
         order = np.lexsort((-uz[down, 1], col))
         first = np.flatnonzero(np.r_[True, np.diff(col[order]) != 0])
-        sill = float(np.median(uz[down, 1][order][first]))
+        tops = uz[down, 1][order][first]
+        below = uz[band_u & (uz[:, 1] < zc)]  # with the points under the tops: the gaps
+        edge = _row_innermost(below[:, ::-1], step, np.maximum, z0 - 2 * c)
+        sill = min(edge, float(np.median(tops)) + 0.5 * spacing)
     return sill, head
