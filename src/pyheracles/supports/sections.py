@@ -119,6 +119,7 @@ def section_islands(
         out.append(classify_island(xy[idx], idx, params, with_shapes=with_shapes))
     if with_shapes:
         out = join_arcs(xy, labels, out, params)
+        out = face_pairs(xy, out, params, distance_m)
         # the scattered points a ring took are no longer left over
         ringed = np.zeros(len(xy), dtype=bool)
         for i in out:
@@ -128,6 +129,101 @@ def section_islands(
         out = rings_from_arcs(xy, labels, out, params, distance_m)
         out = sparse_islands(xy, labels, out, params, distance_m)
     return out
+
+
+#: Two wall islands are the long faces of one pier when they are parallel within this
+#: angle, degrees.
+FACE_PAIR_ANGLE_DEG = 5.0
+#: A face is straight: trimmed RMS of its points to their line within this (metres) plus
+#: 1 % of its length (an arc of a large ring is not).
+FACE_STRAIGHT_RMS_M = 0.01
+#: Each short side of a pier whose long faces are paired must hold at least this many
+#: section points (grazed by the scan lines, it holds a few).
+FACE_END_POINTS = 2
+
+
+def face_line(p: Array) -> tuple[Array, Array, Array, float] | None:
+    """Centre, unit direction, extent ``(t0, t1)`` along it and trimmed RMS to the line
+    of the points ``p`` of a wall island, or None if they do not lie on a line
+    (``FACE_STRAIGHT_RMS_M``)."""
+    c = p.mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov((p - c).T))
+    u = vec[:, 1]
+    t = (p - c) @ u
+    d = (p - c) @ vec[:, 0]
+    rms = trimmed_rms(d)
+    if rms > FACE_STRAIGHT_RMS_M + 0.01 * float(np.ptp(t)):
+        return None
+    return c, u, np.array([t.min(), t.max()]), rms
+
+
+def face_pairs(
+    xy: Array, islands: list[Island], params: SupportParams, distance_m: float
+) -> list[Island]:
+    """Piers seen from their two long sides: pairs of wall islands that are its faces.
+
+    A pier whose long faces the scanners see square on while they graze its short
+    sides has two dense straight faces and a few points on each short side (draw 34
+    of the supports family: a 2.0 x 0.86 m pier, its faces two "walls" of 2 m).  Two
+    straight wall islands no longer than ``max_support_size_m`` are one pier when they
+    are parallel (``FACE_PAIR_ANGLE_DEG``), between ``min_support_size_m`` and
+    ``max_support_size_m`` apart, end at the same places (within three clustering
+    distances, at least 10 cm) and each short side between them holds
+    ``FACE_END_POINTS`` section points off the faces (beyond three times their RMS, at
+    least 2 cm); the pier island takes every section point of its rectangle.  The
+    pieces of walls between openings pair too: the wall-piece tests of the supports
+    (:func:`~pyheracles.supports.detect.wall_pieces`) handle them as any pier-like
+    island.
+    """
+    faces = {}
+    for k, isl in enumerate(islands):
+        if isl.kind == "wall" and float(np.max(isl.size)) <= params.max_support_size_m:
+            line = face_line(xy[isl.index])
+            if line is not None:
+                faces[k] = line
+    if len(faces) < 2:
+        return islands
+    tol = max(0.1, 3.0 * distance_m)
+    cos_max = np.cos(np.radians(FACE_PAIR_ANGLE_DEG))
+    pairs: list[tuple[float, int, int, NDArray[np.intp]]] = []
+    keys = sorted(faces)
+    for a_pos, a in enumerate(keys):  # a few dozen short walls at most
+        ca, ua, ta, rms_a = faces[a]
+        na = np.array([-ua[1], ua[0]])
+        for b in keys[a_pos + 1 :]:
+            cb, ub, _, rms_b = faces[b]
+            if abs(float(ua @ ub)) < cos_max:
+                continue
+            off = float((cb - ca) @ na)
+            if not params.min_support_size_m <= abs(off) <= params.max_support_size_m:
+                continue
+            tb = (xy[islands[b].index] - ca) @ ua
+            if abs(tb.min() - ta[0]) > tol or abs(tb.max() - ta[1]) > tol:
+                continue
+            t0, t1 = min(ta[0], tb.min()), max(ta[1], tb.max())
+            q = xy - ca
+            t, s = q @ ua, (q @ na) * np.sign(off)
+            inside = (t >= t0 - tol) & (t <= t1 + tol) & (s >= -tol) & (s <= abs(off) + tol)
+            edge = max(0.02, 3.0 * max(rms_a, rms_b))  # off the faces' own points
+            between = inside & (s > edge) & (s < abs(off) - edge)
+            ends = (np.count_nonzero(between & (np.abs(t - t0) <= tol)),
+                    np.count_nonzero(between & (np.abs(t - t1) <= tol)))  # fmt: skip
+            if min(ends) < FACE_END_POINTS:
+                continue
+            misfit = abs(tb.min() - ta[0]) + abs(tb.max() - ta[1])
+            pairs.append((misfit, a, b, np.flatnonzero(inside)))
+    used: set[int] = set()
+    piers: list[Island] = []
+    for _, a, b, idx in sorted(pairs, key=lambda x: x[0]):  # best aligned first
+        if a in used or b in used:
+            continue
+        isl = classify_island(xy[idx], idx, params)
+        if isl.kind == "pier":
+            used |= {a, b}
+            piers.append(isl)
+    if not piers:
+        return islands
+    return [i for k, i in enumerate(islands) if k not in used] + piers
 
 
 #: The points left over are grouped again at gaps doubling from twice the clustering

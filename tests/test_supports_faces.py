@@ -1,0 +1,62 @@
+"""Piers seen from their two long sides on draws of the supports scene family (issue 12,
+step 2a): the two dense faces were two short walls, the grazed short sides a few
+points each, and the pier was missed (draw 34)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyheracles.supports import SupportParams, section_islands
+from pyheracles.synthetic.families import simulate
+
+PARAMS = SupportParams()
+
+
+def _pier_faces(w: float, d: float, end_points: int, seed: int) -> np.ndarray:
+    """Section points of a ``w`` x ``d`` pier centred at (21, 12.55): its long faces
+    every 1.5 cm, ``end_points`` points on each short side, 3 mm noise."""
+    rng = np.random.default_rng(seed)
+    x = np.arange(-w / 2, w / 2 + 1e-9, 0.015)
+    faces = [np.c_[x, np.full(len(x), -d / 2)], np.c_[x, np.full(len(x), d / 2)]]
+    if end_points:
+        y = np.linspace(-d / 2 + 0.1, d / 2 - 0.1, end_points)
+        faces += [np.c_[np.full(end_points, -w / 2), y], np.c_[np.full(end_points, w / 2), y]]
+    xy = np.vstack(faces) + [21.0, 12.55]
+    return xy + rng.normal(0, 0.003, xy.shape)
+
+
+def test_pier_seen_from_its_long_sides_is_one_pier() -> None:
+    """Draw 34 (a ruined portico, its 2.0 x 0.86 m piers 12 m tall): the section held
+    each long face as a 2 m "wall" and 6-8 points on each short side; two parallel
+    straight faces ending at the same places, their short sides closed by points, are
+    one pier."""
+    xy = _pier_faces(2.0, 0.86, 6, 34)
+    islands = section_islands(xy, PARAMS, 0.066)
+    piers = [i for i in islands if i.kind == "pier"]
+    assert len(piers) == 1, [(i.kind, i.size) for i in islands]
+    np.testing.assert_allclose(np.sort(piers[0].size), [0.86, 2.0], atol=0.03)
+    np.testing.assert_allclose(piers[0].center, [21.0, 12.55], atol=0.02)
+    assert not [i for i in islands if i.kind == "wall"]
+
+
+def test_open_faces_stay_walls() -> None:
+    """Two parallel faces with nothing on their short sides (two walls of a passage, the
+    backs of two benches) are not a pier."""
+    islands = section_islands(_pier_faces(2.0, 0.86, 0, 34), PARAMS, 0.066)
+    assert not [i for i in islands if i.kind in ("pier", "column")]
+
+
+@pytest.mark.slow
+def test_draw_34_finds_the_pier_seen_from_its_long_sides() -> None:
+    """Draw 34 itself: pier 4 (2.0 x 0.86 m) is found, as a pier."""
+    from pyheracles.building import segment_building
+
+    sim = simulate("supports", 34)
+    res = sim.clouds["cloud"]
+    _, found, _, _ = segment_building(res.xyz)
+    mine = found.instance[(res.instance == 4) & ~res.outlier]
+    ids, counts = np.unique(mine[mine > 0], return_counts=True)
+    assert len(ids) and counts.max() > 0.5 * len(mine)
+    row = found.objects.set_index("instance").loc[int(ids[np.argmax(counts)])]
+    assert row["class"] == "pier"
