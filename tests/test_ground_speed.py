@@ -323,3 +323,49 @@ def test_slivers_of_a_tile_run_in_one_window_with_the_same_result() -> None:
     boxwise = progressive_filter(z, **args, active=active)
     assert boxwise[200:210, 170:184][active[200:210, 170:184]].all()
     assert np.array_equal(whole[active], boxwise[active])
+
+
+def test_smooth_components_gathered_at_the_cells_are_the_raster_shifts() -> None:
+    """The growth's components are linked at the cells themselves (binary search of a
+    neighbour's id), not by shifting raster-sized masks: the same components, numbered
+    alike, on rasters of any shape and reach (issue 17, tiles on a diagonal)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from pyheracles.groundfilters.grow import smooth_components
+
+    def shifted(zmin, cells, step_m, reach, rise_m):
+        rows, cols = cells.shape
+        index = np.full(cells.shape, -1, dtype=np.intp)
+        at = np.flatnonzero(cells)
+        index.ravel()[at] = np.arange(at.size)
+        heads, tails = [], []
+        offsets = [(0, dc) for dc in range(1, reach + 1)]
+        offsets += [(dr, dc) for dr in range(1, reach + 1) for dc in range(-reach, reach + 1)]
+        for dr, dc in offsets:
+            if dr >= rows or abs(dc) >= cols:
+                continue
+            a = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
+            b = (slice(dr, rows), slice(max(0, dc), cols - max(0, -dc)))
+            limit = step_m + rise_m * float(np.hypot(dr, dc))
+            link = cells[a] & cells[b] & (np.abs(zmin[a] - zmin[b]) < limit)
+            heads.append(index[a][link])
+            tails.append(index[b][link])
+        head, tail = np.concatenate(heads), np.concatenate(tails)
+        graph = coo_matrix((np.ones(head.size, np.int8), (head, tail)), (at.size, at.size))
+        _, comp = connected_components(graph, directed=False)
+        labels = np.full(cells.shape, -1, dtype=np.intp)
+        labels.ravel()[at] = comp
+        return labels, np.bincount(comp, minlength=1)
+
+    rng = np.random.default_rng(2)
+    for shape in ((50, 60), (1, 30), (30, 1), (3, 3)):
+        for reach in (1, 2, 3):
+            z = rng.normal(size=shape).cumsum(axis=1) * 0.3
+            cells = rng.uniform(size=shape) < 0.7
+            z[~cells] = np.nan
+            got = smooth_components(z, cells, 0.4, reach=reach, rise_m=0.1)
+            want = shifted(z, cells, 0.4, reach, 0.1)
+            assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    labels, sizes = smooth_components(np.zeros((4, 4)), np.zeros((4, 4), bool), 0.4)
+    assert (labels == -1).all() and sizes.tolist() == [0]

@@ -120,23 +120,27 @@ def smooth_components(
     from scipy.sparse.csgraph import connected_components
 
     rows, cols = cells.shape
-    index = np.full(cells.shape, -1, dtype=np.intp)
-    at = np.flatnonzero(cells)
-    index.ravel()[at] = np.arange(at.size)
+    at = np.flatnonzero(cells)  # row-major, sorted: a neighbour's id by binary search
+    r, c = np.divmod(at, cols)
+    z = zmin.ravel()[at]
     heads, tails = [], []
     reach = max(1, int(reach))
-    # each unordered pair once: offsets in the half plane (dr > 0, or dr == 0 and dc > 0)
+    # each unordered pair once: offsets in the half plane (dr > 0, or dr == 0 and dc > 0);
+    # gathered at the cells only (a mosaic's raster is mostly empty)
     offsets = [(0, dc) for dc in range(1, reach + 1)]
     offsets += [(dr, dc) for dr in range(1, reach + 1) for dc in range(-reach, reach + 1)]
     for dr, dc in offsets:
         if dr >= rows or abs(dc) >= cols:
             continue
-        a = (slice(0, rows - dr), slice(max(0, -dc), cols - max(0, dc)))
-        b = (slice(dr, rows), slice(max(0, dc), cols - max(0, -dc)))
+        ok = np.flatnonzero((r + dr < rows) & (c + dc >= 0) & (c + dc < cols))
+        nb = at[ok] + dr * cols + dc
+        pos = np.minimum(np.searchsorted(at, nb), max(at.size - 1, 0))
+        hit = at[pos] == nb if at.size else np.zeros(0, dtype=bool)
+        ok, pos = ok[hit], pos[hit]
         limit = step_m + rise_m * float(np.hypot(dr, dc))
-        link = cells[a] & cells[b] & (np.abs(zmin[a] - zmin[b]) < limit)
-        heads.append(index[a][link])
-        tails.append(index[b][link])
+        link = np.abs(z[ok] - z[pos]) < limit
+        heads.append(ok[link])
+        tails.append(pos[link])
     head = np.concatenate(heads) if heads else np.zeros(0, dtype=np.intp)
     tail = np.concatenate(tails) if tails else np.zeros(0, dtype=np.intp)
     graph = coo_matrix((np.ones(head.size, dtype=np.int8), (head, tail)), shape=(at.size, at.size))
