@@ -1,4 +1,4 @@
-"""The compiled cross passes of SMRF's disks equal scipy's cross filter, pass by pass."""
+"""The compiled kernels of SMRF's disks (cross passes, squares) equal scipy's filters."""
 
 from __future__ import annotations
 
@@ -35,3 +35,20 @@ def test_zero_passes_one_row_and_nan_rasters() -> None:
     assert np.isnan(out[1, 1]) and np.isnan(out[0, 1]) and out[2, 3] == 11.0
     with pytest.raises(ValueError, match="op must be"):
         repeated_cross_filter(values, 1, "mean")
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (7, 1), (2, 2), (37, 23), (100, 301)])
+@pytest.mark.parametrize("op", ["min", "max"])
+def test_square_filter_is_scipys(shape: tuple[int, int], op: str) -> None:
+    from pyheracles.groundfilters.morphology import square_filter
+
+    rng = np.random.default_rng(shape[0] * 1000 + shape[1])
+    values = rng.normal(size=shape).cumsum(axis=0)
+    filt = ndimage.minimum_filter if op == "min" else ndimage.maximum_filter
+    for half in (1, 2, 5, 13, 40):
+        expected = filt(values, size=2 * half + 1, mode="nearest")
+        assert np.array_equal(square_filter(values, half, op), expected), half
+    holed = values.copy()
+    holed.flat[0] = np.nan  # through scipy
+    assert np.array_equal(square_filter(holed, 2, op), filt(holed, size=5, mode="nearest"),
+                          equal_nan=True)  # fmt: skip

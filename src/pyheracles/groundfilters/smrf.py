@@ -27,7 +27,7 @@ from scipy import ndimage
 
 from pyheracles.errors import InputError
 from pyheracles.groundfilters.grow import grow_smooth, smooth_components
-from pyheracles.groundfilters.morphology import repeated_cross_filter
+from pyheracles.groundfilters.morphology import repeated_cross_filter, square_filter
 from pyheracles.groundfilters.surface import (
     DTM,
     Grid,
@@ -195,10 +195,8 @@ def _disk_filter(surface: NDArray[np.float64], radius: int, op: str) -> NDArray[
     # octagon = square (half-width a) (+) diamond (radius b), a + b = r and a + b/2 = r/sqrt(2)
     b = round(2.0 * radius * (1.0 - 1.0 / np.sqrt(2.0)))
     a = radius - b
-    filt = ndimage.minimum_filter if op == "min" else ndimage.maximum_filter
-    out = filt(surface, size=2 * a + 1, mode="nearest") if a > 0 else surface
-    # the diamond: b passes of the 3 x 3 cross, edges replicated, in one compiled loop
-    return repeated_cross_filter(out, b, op)
+    # the square, then the diamond (b passes of the 3 x 3 cross), edges replicated
+    return repeated_cross_filter(square_filter(surface, a, op), b, op)
 
 
 def opening(surface: NDArray[np.float64], radius: int) -> NDArray[np.float64]:
