@@ -49,21 +49,31 @@ def _halve(values: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     half_rows, half_cols = (rows + 1) // 2, (cols + 1) // 2
     out = np.empty((half_rows, half_cols))
     for bi in range(half_rows):
+        i0, i1 = 2 * bi, 2 * bi + 1
         for bj in range(half_cols):
+            j0, j1 = 2 * bj, 2 * bj + 1
             count = 0
-            z = np.zeros(4)
-            for k in range(4):
-                i = 2 * bi + k // 2
-                j = 2 * bj + k % 2
-                if i < rows and j < cols:
-                    v = values[i, j]
+            z00 = z01 = z10 = z11 = 0.0
+            v = values[i0, j0]
+            if np.isfinite(v):
+                z00 = v
+                count += 1
+            if j1 < cols:
+                v = values[i0, j1]
+                if np.isfinite(v):
+                    z01 = v
+                    count += 1
+            if i1 < rows:
+                v = values[i1, j0]
+                if np.isfinite(v):
+                    z10 = v
+                    count += 1
+                if j1 < cols:
+                    v = values[i1, j1]
                     if np.isfinite(v):
-                        z[k] = v
+                        z11 = v
                         count += 1
-            if count > 0:
-                out[bi, bj] = ((z[0] + z[1]) + (z[2] + z[3])) / count
-            else:
-                out[bi, bj] = np.nan
+            out[bi, bj] = ((z00 + z01) + (z10 + z11)) / count if count > 0 else np.nan
     return out
 
 
