@@ -47,6 +47,33 @@ def test_open_faces_stay_walls() -> None:
     assert not [i for i in islands if i.kind in ("pier", "column")]
 
 
+def test_wall_between_two_doors_is_no_face_pair() -> None:
+    """Draw 31 (a 1.2 m thick wall, two doors 0.3 m apart; here 0.45 m): the reveals of the
+    piece of wall between the doors are two parallel 1.2 m "walls" ending at the same
+    places, closed by the wall's faces, like the faces of a pier; but those short
+    sides lie on the wall's faces, which run on beyond the doors."""
+    rng = np.random.default_rng(31)
+
+    def line(a, b, step=0.015):
+        n = int(np.hypot(*np.subtract(b, a)) / step) + 1
+        return np.linspace(a, b, n)
+
+    xy = np.vstack(
+        [
+            line([-0.6, -0.225], [0.6, -0.225]),  # the reveals
+            line([-0.6, 0.225], [0.6, 0.225]),
+            line([-0.6, -0.1], [-0.6, 0.1], 0.1),  # the wall's faces between them,
+            line([0.6, -0.1], [0.6, 0.1], 0.1),  # grazed: three points each
+        ]
+        + [line([x, y0], [x, y1]) for x in (-0.6, 0.6) for y0, y1 in ((2.15, 3.5), (-3.5, -2.15))]
+        + [line([-0.6, y], [0.6, y]) for y in (2.15, -2.15)]  # the far reveals of the doors
+    )
+    xy = xy + rng.normal(0, 0.003, xy.shape)
+    islands = section_islands(xy, PARAMS, 0.066)
+    near = [i for i in islands if i.kind == "pier" and np.hypot(*i.center) < 0.5]
+    assert not near, [(i.kind, i.center, i.size) for i in near]
+
+
 @pytest.mark.slow
 def test_draw_34_finds_the_pier_seen_from_its_long_sides() -> None:
     """Draw 34 itself: pier 4 (2.0 x 0.86 m) is found, as a pier."""

@@ -12,7 +12,12 @@ from pyheracles.geometry.fitting import fit_circle, min_area_rectangle
 from pyheracles.geometry.sections import circularity
 from pyheracles.segment.euclidean import euclidean_clusters
 from pyheracles.supports.core import Array, Island, SupportParams, check_pair_memory, trimmed_rms
-from pyheracles.supports.piers import outline_rectangle, rect_rms
+from pyheracles.supports.piers import (
+    WALL_LINE_COVER_M,
+    WALL_LINE_GAP_M,
+    outline_rectangle,
+    rect_rms,
+)
 from pyheracles.supports.rings import (
     ARC_GAP_M,
     RING_RADIUS_M,
@@ -157,6 +162,31 @@ def face_line(p: Array) -> tuple[Array, Array, Array, float] | None:
     return c, u, np.array([t.min(), t.max()]), rms
 
 
+def ends_on_wall_lines(
+    t: Array, s: Array, ends: tuple[float, float], depth: float, tol: float, bin_m: float
+) -> bool:
+    """Whether a short side of a face pair lies on a wall line running on beyond it.
+
+    ``t``, ``s``: section points along the faces and across them (0 on the first face,
+    ``depth`` on the second), metres.  The two reveals of the piece of a wall between two
+    doors pair like the faces of a pier, their short sides on the wall's own faces:
+    points within ``tol`` of the line of a short side (``t`` at one of ``ends``, the
+    faces' extent: ``tol`` is the tolerance of their alignment),
+    beyond the pair and at most ``WALL_LINE_GAP_M`` from it, covering
+    ``WALL_LINE_COVER_M`` of that line in bins of ``bin_m`` (draw 31 of the supports
+    family: a 0.3 m piece of a 1.2 m thick wall between two doors).
+    """
+    out = ((s < -tol) & (s >= -WALL_LINE_GAP_M)) | (
+        (s > depth + tol) & (s <= depth + WALL_LINE_GAP_M)
+    )
+    need = max(2, int(np.ceil(WALL_LINE_COVER_M / bin_m)))
+    for end in ends:
+        on = out & (np.abs(t - end) <= tol)
+        if len(np.unique(np.floor(s[on] / bin_m))) >= need:
+            return True
+    return False
+
+
 def face_pairs(
     xy: Array, islands: list[Island], params: SupportParams, distance_m: float
 ) -> list[Island]:
@@ -210,6 +240,8 @@ def face_pairs(
                     np.count_nonzero(between & (np.abs(t - t1) <= tol)))  # fmt: skip
             if min(ends) < FACE_END_POINTS:
                 continue
+            if ends_on_wall_lines(t, s, (t0, t1), abs(off), tol, max(0.05, distance_m)):
+                continue  # the reveals of a piece of wall between two doors
             misfit = abs(tb.min() - ta[0]) + abs(tb.max() - ta[1])
             pairs.append((misfit, a, b, np.flatnonzero(inside)))
     used: set[int] = set()
