@@ -8,7 +8,7 @@ from numpy.typing import NDArray
 from pyheracles.walls.model import Array, Opening, WallParams
 from pyheracles.walls.openings import merge_lights, refine_edges
 
-__all__ = ["mask_polygon", "occupancy", "simplify_ring", "wall_outline"]
+__all__ = ["floor_levels", "mask_polygon", "occupancy", "simplify_ring", "wall_outline"]
 
 
 def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
@@ -48,8 +48,9 @@ def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
 def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.bool_],
                  uz_all: Array,
                  near: NDArray[np.bool_], behind: NDArray[np.bool_], front: NDArray[np.bool_],
-                 p: WallParams) -> tuple[Array, list[Opening], tuple[float, float],
-                                         tuple[float, float]]:  # fmt: skip
+                 p: WallParams, side: NDArray[np.int64] | None = None,
+                 ) -> tuple[Array, list[Opening], tuple[float, float],
+                            tuple[float, float]]:  # fmt: skip
     """Envelope and openings of one wall from its face points ``w_uz`` (``(u, z)``).
 
     ``face_of`` gives the face of each point (its own foot decides what is a door);
@@ -57,7 +58,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     of openings (mixed pixels, off the plane, do not);
     ``uz_all`` are the detection sample's points on the plane, with the masks of those
     ``near`` the wall, ``behind`` its face(s) (inside the wall or beyond a lone face)
-    and in ``front`` of it.
+    and in ``front`` of it; ``side``: on which side of the wall's plane each of those
+    lies (+1/-1; the floor inside and the ground outside under a door).
     """
     from scipy import ndimage
 
@@ -130,8 +132,11 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                                           at_foot, jambs)  # fmt: skip
             if on_floor:  # a door: the opening through the wall starts at the highest
                 # face foot under it (the floor inside above a step down outside)
-                z0 = _threshold(z0, [lo[1] + float(np.median(ft[sl[0]])) * c
-                                     for ft in feet], p.door_step_m + c)  # fmt: skip
+                levels = [lo[1] + float(np.median(ft[sl[0]])) * c for ft in feet]
+                if side is not None:
+                    levels += floor_levels(uz_all, front & near, side, u0 + c, u1 - c, z0,
+                                           p.door_step_m + c, p.distance_m)  # fmt: skip
+                z0 = _threshold(z0, levels, p.door_step_m + c)
             poly = mask_polygon(region, lo + np.array([sl[0].start, sl[1].start]) * c, c)
             openings.append(Opening("door" if on_floor else "window", float(u0), float(u1),
                                     float(z0), float(z1), poly))  # fmt: skip
@@ -143,6 +148,32 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     outline = np.r_[np.c_[us, bz], np.c_[us[::-1], tz[::-1]]]
     outline = simplify_ring(outline, c)
     return outline, openings, (float(us[0]), float(us[-1])), (float(bz.min()), float(tz.max()))
+
+
+def floor_levels(uz: Array, front: NDArray[np.bool_], side: NDArray[np.int64], u0: float,
+                 u1: float, z0: float, step: float, flat: float) -> list[float]:  # fmt: skip
+    """Heights (m) of the floor or ground on each side of a door ``u0``-``u1`` whose
+    foot is measured at ``z0``: the median height of the points in front of the wall on
+    that side, between ``u0`` and ``u1`` and from half a metre below ``z0`` to ``step``
+    above it, when at least 10 and flat (interquartile range within ``flat``, m: an
+    open leaf or clutter in the doorway is no floor; church draws 1 and 2).
+
+    A face's own foot under a door is that of its points beside it, and clutter along an
+    inner face (pews, a dado in shadow) lifts it out of reach: church draw 4's inner
+    faces stood 0.58 m above the floor by the north door, the door's foot stayed on the
+    ground outside, 11 cm low.  The floor itself, seen through the doorway, is there.
+    """
+    sel = front & (uz[:, 0] > u0) & (uz[:, 0] < u1) & (uz[:, 1] > z0 - 0.5)
+    sel &= uz[:, 1] < z0 + step
+    out = []
+    for s in (1, -1):
+        z = uz[sel & (side == s), 1]
+        if len(z) < 10:
+            continue
+        q25, q50, q75 = np.percentile(z, [25, 50, 75])
+        if q75 - q25 <= flat:  # a floor, not a leaf or clutter standing in the doorway
+            out.append(float(q50))
+    return out
 
 
 def _threshold(z0: float, feet: list[float], step: float) -> float:
