@@ -204,15 +204,16 @@ def test_halving_and_far_cells_are_the_whole_raster_formulas(monkeypatch) -> Non
     d = ndimage.distance_transform_cdt(unknown, metric="chessboard")
     far_expected = unknown & (d > surface.INPAINT_BAND_CELLS)
     seen = {}
-    original = surface._solve_band_cg
+    original = surface._solve_band_cells
 
-    def spy(vals, band):
-        seen["band"] = band.copy()
-        return original(vals, band)
+    def spy(vals, at):
+        seen["band"] = np.zeros(vals.size, dtype=bool)
+        seen["band"][at] = True
+        return original(vals, at)
 
-    monkeypatch.setattr(surface, "_solve_band_cg", spy)
+    monkeypatch.setattr(surface, "_solve_band_cells", spy)
     surface.inpaint(values)
-    assert np.array_equal(seen["band"], unknown & ~far_expected)
+    assert np.array_equal(seen["band"].reshape(values.shape), unknown & ~far_expected)
 
 
 def test_band_solve_and_float32_padding_are_the_whole_raster_formulas() -> None:
@@ -266,10 +267,12 @@ def test_band_solve_and_float32_padding_are_the_whole_raster_formulas() -> None:
 
 
 def test_coarse_fill_is_the_interleaved_bilinear_formula() -> None:
-    """The compiled coarse fill of the pyramid is the two interleaved bilinear passes
-    (rows, then columns; edges replicated) it replaces, to the bit, in the unknown cells
-    only."""
-    from pyheracles.groundfilters.pyramid import fill_from_coarse
+    """The compiled fill of the pyramid is the two interleaved bilinear passes (rows, then
+    columns; edges replicated) it replaces, to the bit, in the unknown cells only, and
+    its band is the unknown cells a square dilation of the known ones reaches."""
+    from scipy import ndimage
+
+    from pyheracles.groundfilters.pyramid import band_and_fill
 
     def axis0(a):
         prev = np.concatenate([a[:1], a[:-1]])
@@ -282,12 +285,17 @@ def test_coarse_fill_is_the_interleaved_bilinear_formula() -> None:
     rng = np.random.default_rng(9)
     for shape in ((301, 403), (1, 7), (6, 1), (9, 9), (1, 1)):
         coarse = rng.normal(size=((shape[0] + 1) // 2, (shape[1] + 1) // 2)) * 10.0
-        unknown = rng.uniform(size=shape) < 0.7
-        expected = np.full(shape, -1.0)
+        unknown = rng.uniform(size=shape) < 0.9
+        values = np.where(unknown, np.nan, -1.0)
+        expected = values.copy()
         expected[unknown] = axis0(axis0(coarse).T).T[: shape[0], : shape[1]][unknown]
-        got = np.full(shape, -1.0)
-        fill_from_coarse(got, unknown, coarse)
-        assert np.array_equal(got, expected)
+        for reach in (1, 3, 6):
+            got = values.copy()
+            band = band_and_fill(got, coarse, reach)
+            assert np.array_equal(got, expected)
+            near = ndimage.maximum_filter((~unknown).view(np.uint8), size=2 * reach + 1,
+                                          mode="constant")  # fmt: skip
+            assert np.array_equal(band, np.flatnonzero(unknown & (near > 0)))
 
 
 def test_slivers_of_a_tile_run_in_one_window_with_the_same_result() -> None:
@@ -369,3 +377,25 @@ def test_smooth_components_gathered_at_the_cells_are_the_raster_shifts() -> None
             assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     labels, sizes = smooth_components(np.zeros((4, 4)), np.zeros((4, 4), bool), 0.4)
     assert (labels == -1).all() and sizes.tolist() == [0]
+
+
+def test_inpaint_update_solves_only_the_regions_that_changed() -> None:
+    """After SMRF takes pits out of its terrain, only the unknown regions holding a pit
+    are solved again (each exactly, in its own box): the same raster as inpainting the
+    whole anew, where the whole costs a mosaic's raster a quarter of a second."""
+    from pyheracles.groundfilters.surface import inpaint, inpaint_update
+
+    rng = np.random.default_rng(7)
+    rr, cc = np.indices((80, 90), dtype=float)
+    z = 0.1 * rr + 0.05 * cc + rng.normal(0, 0.02, (80, 90))
+    holed = z.copy()
+    holed[10:20, 10:30] = np.nan
+    holed[50:52, 60:62] = np.nan
+    before = inpaint(holed)
+    changed = np.zeros(z.shape, dtype=bool)
+    changed[30, 40] = True  # a pit cell amid known cells
+    changed[15, 30] = True  # one at the edge of a hole: the hole is solved again
+    unknown = np.isnan(holed) | changed
+    got = inpaint_update(before, unknown, changed)
+    np.testing.assert_allclose(got, inpaint(np.where(unknown, np.nan, holed)), atol=1e-12)
+    assert np.array_equal(got[50:52, 60:62], before[50:52, 60:62])  # untouched region

@@ -33,6 +33,7 @@ from pyheracles.groundfilters.surface import (
     Grid,
     RasterSampler,
     inpaint,
+    inpaint_update,
     rasterise,
     rasterise_cells,
 )
@@ -748,6 +749,7 @@ def smrf(
         found &= keep
         if found.any():
             keep &= ~found
+            surface_of_keep = inpaint_update(terrain, ~keep, found)  # refilled at the pits
         else:
             surface_of_keep = terrain  # no pit: the provisional DTM is this surface
     if not keep.any():
