@@ -98,34 +98,33 @@ def _band_and_fill(
 
 
 @njit(cache=True)
+def _row_pair(values: np.ndarray, i: int, j: int) -> tuple[float, int]:  # pragma: no cover
+    """Sum (unknown cells as 0) and count of the known cells ``(i, j)``, ``(i, j + 1)``."""
+    rows, cols = values.shape
+    a = b = 0.0
+    count = 0
+    if i < rows:
+        v = values[i, j]
+        if np.isfinite(v):
+            a = v
+            count += 1
+        if j + 1 < cols:
+            v = values[i, j + 1]
+            if np.isfinite(v):
+                b = v
+                count += 1
+    return a + b, count
+
+
+@njit(cache=True)
 def _halve(values: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     rows, cols = values.shape
     half_rows, half_cols = (rows + 1) // 2, (cols + 1) // 2
     out = np.empty((half_rows, half_cols))
     for bi in range(half_rows):
-        i0, i1 = 2 * bi, 2 * bi + 1
         for bj in range(half_cols):
-            j0, j1 = 2 * bj, 2 * bj + 1
-            count = 0
-            z00 = z01 = z10 = z11 = 0.0
-            v = values[i0, j0]
-            if np.isfinite(v):
-                z00 = v
-                count += 1
-            if j1 < cols:
-                v = values[i0, j1]
-                if np.isfinite(v):
-                    z01 = v
-                    count += 1
-            if i1 < rows:
-                v = values[i1, j0]
-                if np.isfinite(v):
-                    z10 = v
-                    count += 1
-                if j1 < cols:
-                    v = values[i1, j1]
-                    if np.isfinite(v):
-                        z11 = v
-                        count += 1
-            out[bi, bj] = ((z00 + z01) + (z10 + z11)) / count if count > 0 else np.nan
+            top, n_top = _row_pair(values, 2 * bi, 2 * bj)
+            bottom, n_bottom = _row_pair(values, 2 * bi + 1, 2 * bj)
+            count = n_top + n_bottom
+            out[bi, bj] = (top + bottom) / count if count > 0 else np.nan
     return out
