@@ -60,6 +60,44 @@ def sharpest_direction(
     return float(angles[k])
 
 
+def sorted_quantile(
+    values: NDArray[np.float64], start: NDArray[np.intp], count: NDArray[np.intp], q: float
+) -> NDArray[np.float64]:
+    """``np.quantile(values[start[i]:start[i] + count[i]], q)`` for every group ``i`` of
+    ``values`` sorted within its group, by numpy's formulas (method "linear": its virtual
+    index and its interpolation, so the same numbers to the bit)."""
+    n = count.astype(np.float64)
+    virtual = (n - 1.0) * q
+    prev = np.floor(virtual)
+    nxt = prev + 1.0
+    above = virtual >= n - 1.0
+    prev[above] = n[above] - 1.0
+    nxt[above] = n[above] - 1.0
+    below = virtual < 0
+    prev[below] = 0.0
+    nxt[below] = 0.0
+    gamma = virtual - prev
+    a = values[start + prev.astype(np.intp)]
+    b = values[start + nxt.astype(np.intp)]
+    diff = b - a
+    out = a + diff * gamma
+    high = gamma >= 0.5
+    out[high] = (b - diff * (1.0 - gamma))[high]
+    return out
+
+
+def sorted_median(
+    values: NDArray[np.float64], start: NDArray[np.intp], count: NDArray[np.intp]
+) -> NDArray[np.float64]:
+    """``np.median`` of every group of ``values`` sorted within its group (the middle
+    value, or the mean of the two middle ones)."""
+    half = count // 2
+    odd = count % 2 == 1
+    hi = values[start + half]
+    lo = values[start + np.maximum(half - 1, 0)]
+    return np.where(odd, hi, (lo + hi) / 2.0)
+
+
 #: Fewest points of a slice of a band that give its two edges.
 _EDGE_SLICE_MIN_POINTS = 8
 
@@ -92,16 +130,18 @@ def edge_line_direction(
     n_slices = int(np.clip(len(q) // max(slice_points, 1), 6, 24))
     step = max((t_hi - t_lo) / n_slices, 0.05, 5.0 * bin_m)
     k = np.minimum(((t - t_lo) / step).astype(np.int64), max(int((t_hi - t_lo) / step), 0))
-    order = np.argsort(k, kind="stable")
-    parts = [
-        part
-        for part in np.split(order, np.flatnonzero(np.diff(k[order])) + 1)
-        if len(part) >= _EDGE_SLICE_MIN_POINTS
-    ]
-    if len(parts) < 4:
+    count = np.bincount(k)
+    start = np.concatenate([[0], np.cumsum(count)[:-1]])
+    full = count >= _EDGE_SLICE_MIN_POINTS
+    if int(full.sum()) < 4:
         return float(ang0)
-    tm = np.array([np.median(t[part]) for part in parts])
-    edges = np.array([np.quantile(s[part], [0.02, 0.98]) for part in parts]).T  # (2, slices)
+    # each slice's values sorted once (by slice, then value): its median along and
+    # its 2 / 98 % quantiles across, by numpy's own formulas (one call per band,
+    # not three per slice: 4,321 small np.quantile calls took 1.1 s on a 1 M-point roof)
+    tm = sorted_median(t[np.lexsort((t, k))], start[full], count[full])
+    s_sorted = s[np.lexsort((s, k))]
+    edges = np.array([sorted_quantile(s_sorted, start[full], count[full], q)
+                      for q in (0.02, 0.98)])  # fmt: skip  (2, slices)
     dt = tm[None, :] - tm[:, None]
     pair = np.abs(dt) > 0.25 * step
     rows = pair.any(axis=1)
