@@ -5,18 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from church_walls import church_walls
+
 pytestmark = pytest.mark.slow  # a 3.4 M point draw: about 35 s
 
 
 @pytest.fixture(scope="module")
 def church0():
-    from pyheracles.synthetic.families import simulate
-    from pyheracles.walls import segment_walls
-
-    sim = simulate("church", 0, exterior_kind="tls")
-    xyz = np.vstack([c.xyz @ sim.transforms[k][:3, :3].T + sim.transforms[k][:3, 3]
-                     for k, c in sim.clouds.items()])  # fmt: skip
-    return segment_walls(xyz), sim.scene.objects
+    return church_walls(0)
 
 
 def _match(r, tw):

@@ -6,18 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from church_walls import church_walls
+
 pytestmark = pytest.mark.slow  # a 2.6 M point draw: about 30 s
 
 
 @pytest.fixture(scope="module")
 def church4():
-    from pyheracles.synthetic.families import simulate
-    from pyheracles.walls import segment_walls
-
-    sim = simulate("church", 4, exterior_kind="tls")
-    xyz = np.vstack([c.xyz @ sim.transforms[k][:3, :3].T + sim.transforms[k][:3, 3]
-                     for k, c in sim.clouds.items()])  # fmt: skip
-    return segment_walls(xyz), sim.scene.objects
+    return church_walls(4)
 
 
 def test_door_foot_is_the_floor_seen_through_it(church4) -> None:
