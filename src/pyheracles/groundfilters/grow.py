@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.groundfilters.surface import positions_of_cells
+
 __all__ = ["grow_smooth", "smooth_components", "window_any", "window_cells", "window_planes"]
 
 _EIGHT = np.ones((3, 3), dtype=bool)
@@ -133,9 +135,7 @@ def smooth_components(
         if dr >= rows or abs(dc) >= cols:
             continue
         ok = np.flatnonzero((r + dr < rows) & (c + dc >= 0) & (c + dc < cols))
-        nb = at[ok] + dr * cols + dc
-        pos = np.minimum(np.searchsorted(at, nb), max(at.size - 1, 0))
-        hit = at[pos] == nb if at.size else np.zeros(0, dtype=bool)
+        hit, pos = positions_of_cells(at, at[ok] + dr * cols + dc)
         ok, pos = ok[hit], pos[hit]
         limit = step_m + rise_m * float(np.hypot(dr, dc))
         link = np.abs(z[ok] - z[pos]) < limit

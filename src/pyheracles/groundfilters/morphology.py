@@ -1,7 +1,7 @@
 """Grey morphology kernels of the ground filters: squares and repeated 3 x 3 crosses.
 
 SMRF's openings (:func:`pyheracles.groundfilters.smrf.opening`) build each octagonal
-disk as a square (one separable ``scipy.ndimage`` min/max filter) and a diamond, and
+disk as a square (a separable running min / max) and a diamond, and
 the diamond of radius ``b`` is ``b`` erosions (or dilations) by the 3 x 3 cross. Over a
 progressive filter that is hundreds of cross passes over the raster, the largest cost
 of the ground filter on wide rasters (tiles on a diagonal). ``scipy.ndimage`` has no
@@ -22,22 +22,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["cross_filter", "repeated_cross_filter", "square_filter"]
-
-
-def cross_filter(values: NDArray[np.float64], op: str) -> NDArray[np.float64]:
-    """One grey erosion (``op="min"``) or dilation (``"max"``) by the 3 x 3 cross.
-
-    Edges are replicated (``mode="nearest"``): a missing neighbour is the cell itself.
-    The same result as ``ndimage.minimum_filter(values, footprint=cross,
-    mode="nearest")``.
-    """
-    return repeated_cross_filter(values, 1, op)
+__all__ = ["repeated_cross_filter", "square_filter"]
 
 
 def repeated_cross_filter(values: NDArray[np.float64], n: int, op: str) -> NDArray[np.float64]:
-    """``n`` successive :func:`cross_filter` passes: erosion or dilation by the diamond
-    ``|dx| + |dy| <= n`` (edges replicated at every pass).
+    """``n`` successive grey erosions (``op="min"``) or dilations (``"max"``) by the 3 x 3
+    cross: by the diamond ``|dx| + |dy| <= n``, edges replicated at every pass (a
+    missing neighbour is the cell itself, as ``ndimage.minimum_filter(values,
+    footprint=cross, mode="nearest")`` applied ``n`` times).
 
     Parameters
     ----------

@@ -32,6 +32,7 @@ __all__ = [
     "inpaint_update",
     "mean_surface",
     "mean_surface_cells",
+    "positions_of_cells",
     "rasterise",
     "rasterise_cells",
     "sample_raster",
@@ -160,7 +161,6 @@ def _pad_linear(values: NDArray[np.float64]) -> NDArray[np.float64]:
     return padded
 
 
-
 def _pad_linear_as(values: NDArray[np.float64], dtype: np.dtype) -> NDArray:
     """``_pad_linear(values).astype(dtype)`` without the float64 copy of the raster: the
     interior is cast once into the padded raster and only the border is computed in
@@ -184,6 +184,7 @@ def _pad_linear_as(values: NDArray[np.float64], dtype: np.dtype) -> NDArray:
     out[:, 0] = 2 * left1 - left2
     out[:, -1] = 2 * right1 - right2
     return out
+
 
 class RasterSampler:
     """Bilinear sampling of rasters of one :class:`Grid` at fixed points, weights computed once.
@@ -478,10 +479,24 @@ def _inpaint_coarse_to_fine(
     return out
 
 
-def _solve_band_cg(values: NDArray[np.float64], band: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Harmonic values of the ``band`` cells (row-major), every other cell of ``values``
-    fixed (:func:`_solve_band_cells` of the mask's cells)."""
-    return _solve_band_cells(values, np.flatnonzero(band))
+def positions_of_cells(
+    at: NDArray[np.int64], flat: NDArray[np.int64]
+) -> tuple[NDArray[np.bool_], NDArray[np.intp]]:
+    """Which of the flat cell indices ``flat`` are among the sorted cells ``at``, and
+    their positions there (by binary search: no raster-sized id map, as a mosaic's
+    mostly empty raster would need).
+
+    Returns
+    -------
+    found
+        ``(len(flat),)`` bool.
+    positions
+        ``(len(flat),)`` index into ``at`` (meaningful where ``found``).
+    """
+    if len(at) == 0:
+        return np.zeros(len(flat), dtype=bool), np.zeros(len(flat), dtype=np.intp)
+    pos = np.minimum(np.searchsorted(at, flat), len(at) - 1)
+    return at[pos] == flat, pos
 
 
 def _solve_band_cells(values: NDArray[np.float64], at: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -503,9 +518,7 @@ def _solve_band_cells(values: NDArray[np.float64], at: NDArray[np.int64]) -> NDA
         inside = (nr >= 0) & (nr < rows) & (nc >= 0) & (nc < cols)
         deg += inside
         idx = np.flatnonzero(inside)
-        flat = nr[idx] * cols + nc[idx]
-        pos = np.minimum(np.searchsorted(at, flat), n - 1)
-        in_band = at[pos] == flat
+        in_band, pos = positions_of_cells(at, nr[idx] * cols + nc[idx])
         fixed = idx[~in_band]
         rhs[fixed] += values[nr[fixed], nc[fixed]]
         row_parts.append(idx[in_band])
