@@ -71,7 +71,8 @@ class ComplexParams:
         ``scatter_rise_m`` above its surface beside them.
     porous_share
         A point is porous when at least this share of it and its 16 nearest
-        candidates (3D) are pass-through: a crown's last returns lie amid its
+        candidates (3D) within 3 m are pass-through (on a sparse survey the 16
+        span a building and the crown over it): a crown's last returns lie amid its
         pass-through returns; a roof's eave line (pass-through returns on an
         edge) and a roof under a crown amid the roof's last returns (see
         :func:`pyheracles.complex.clusters.porous_points`).  ``None``: every
