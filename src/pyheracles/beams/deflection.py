@@ -38,7 +38,14 @@ from numpy.typing import NDArray
 from pyheracles.beams.model import BeamCuboid
 from pyheracles.errors import InputError
 
-__all__ = ["BoxIndex", "MemberShape", "ShapeParams", "member_shape", "member_shapes"]
+__all__ = [
+    "BoxIndex",
+    "MemberShape",
+    "ShapeParams",
+    "member_shape",
+    "member_shapes",
+    "near_beams",
+]
 
 Array = NDArray[np.float64]
 
@@ -378,6 +385,7 @@ def member_shape(
     other: NDArray[np.bool_] | None = None,
     others: Sequence[BeamCuboid] = (),
     index: BoxIndex | None = None,
+    blocked: NDArray[np.bool_] | None = None,
 ) -> MemberShape:
     """Deflection and twist of one beam from its points.
 
@@ -399,6 +407,9 @@ def member_shape(
         beam's faces are not followed into the beam it meets).
     index
         :class:`BoxIndex` of ``xyz``, shared between beams.
+    blocked
+        ``(N,)`` points within ``surface_tol_m`` of another beam's cuboid, found
+        once for all beams (:func:`near_beams`); replaces ``others``.
 
     Returns
     -------
@@ -420,7 +431,9 @@ def member_shape(
     box = (index or BoxIndex(xyz)).query(lo, hi)
     if other is not None:
         box = box[~other[box] | own[box]]
-    for oc in others:
+    if blocked is not None:
+        box = box[own[box] | ~blocked[box]]
+    for oc in others if blocked is None else ():
         c = oc.corners()
         if np.any(c.max(axis=0) < lo) or np.any(c.min(axis=0) > hi):
             continue
@@ -554,6 +567,7 @@ def member_shapes(
     assigned = labels > 0
     beams = list(beams)
     index = BoxIndex(xyz)
+    count, which = near_beams(xyz, beams, p.surface_tol_m, index)
     return [
         member_shape(
             xyz,
@@ -561,24 +575,52 @@ def member_shapes(
             labels == i + 1,
             p,
             other=assigned,
-            others=beams[:i] + beams[i + 1 :],
             index=index,
+            blocked=(count >= 2) | ((count == 1) & (which != i)),
         )
         for i, cub in enumerate(beams)
     ]
+
+
+def near_beams(
+    xyz: Array, beams: Sequence[BeamCuboid], tol: float, index: BoxIndex | None = None
+) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """How many cuboids each point lies inside or within ``tol`` of, and the last one.
+
+    Returns ``count`` and ``which`` (0-based beam, -1 for none), both ``(N,)``:
+    a point is near another beam than ``i`` when ``count >= 2``, or ``count == 1``
+    and ``which != i``.  Each cuboid's distances are taken once, on the points of
+    its bounding box widened by ``tol`` (a point outside it is farther than ``tol``),
+    not once per pair of beams: on a 1 M-point roof the pairs took most of the
+    frame's time, a rafter's box holding half of the roof.
+    """
+    idx = index or BoxIndex(xyz)
+    count = np.zeros(len(xyz), dtype=np.int32)
+    which = np.full(len(xyz), -1, dtype=np.int32)
+    for j, cub in enumerate(beams):
+        c = cub.corners()
+        box = idx.query(c.min(axis=0) - tol, c.max(axis=0) + tol)
+        hit = box[cub.signed_distance(xyz[box]) <= tol]
+        count[hit] += 1
+        which[hit] = j
+    return count, which
 
 
 class BoxIndex:
     """Points sorted along each coordinate, for axis-aligned box queries.
 
     A query scans the points inside the box's narrowest coordinate range only
-    (a beam along ``x`` is narrow in ``y`` and ``z``), not the whole cloud.
+    (a beam along ``x`` is narrow in ``y`` and ``z``), not the whole cloud.  The
+    coordinates are kept in each of the three orders, so that a query reads one
+    contiguous run of them instead of gathering scattered rows (three copies of
+    the cloud: on a 1 M-point roof the gathers took most of the queries' time).
     """
 
     def __init__(self, xyz: Array) -> None:
         self.xyz = xyz
         self.order = [np.argsort(xyz[:, d], kind="stable") for d in range(3)]
-        self.sorted = [xyz[o, d] for d, o in enumerate(self.order)]
+        self.points = [xyz[o] for o in self.order]
+        self.sorted = [pts[:, d] for d, pts in enumerate(self.points)]
 
     def query(self, lo: Array, hi: Array) -> NDArray[np.int64]:
         """Sorted indices of the points with ``lo <= xyz <= hi``."""
@@ -590,7 +632,7 @@ class BoxIndex:
             for d in range(3)
         ]
         d = int(np.argmin([b - a for a, b in spans]))
-        idx = self.order[d][spans[d][0] : spans[d][1]]
-        pts = self.xyz[idx]
+        a, b = spans[d]
+        pts = self.points[d][a:b]
         inside = np.all((pts >= lo) & (pts <= hi), axis=1)
-        return np.sort(idx[inside])
+        return np.sort(self.order[d][a:b][inside])
