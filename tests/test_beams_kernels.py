@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyheracles.beams.bands import across_quantiles, edge_line_direction
+from pyheracles.beams.bands import across_quantiles, best_direction, edge_line_direction
 from pyheracles.beams.deflection import BoxIndex, member_shape, member_shapes, near_beams
 from pyheracles.beams.model import BeamCuboid
 from pyheracles.segment.edge_kernels import knn_edge_terms
@@ -50,6 +50,27 @@ def test_extreme_quantiles_across_directions_are_numpys() -> None:
         s = -q[:, :1] * np.sin(angles) + q[:, 1:] * np.cos(angles)
         want = np.quantile(s, [0.005, 0.995], axis=0)
         assert np.array_equal(np.array(across_quantiles(q, angles, 0.005, 0.995)), want)
+
+
+def test_hough_accumulator_of_best_direction_is_numpys() -> None:
+    rng = np.random.default_rng(5)
+    for it in range(100):
+        m = int(rng.integers(1, 4001))
+        q = rng.normal(size=(m, 2)) * [rng.uniform(0.1, 5), rng.uniform(0.01, 0.3)]
+        if it % 4 == 0:
+            q = np.round(q, 2)
+        angles = np.arange(0.0, np.pi, np.radians(rng.choice([1.0, 5.0])))
+        bin_m = float(rng.uniform(0.002, 0.05))
+        s = -q[:, :1] * np.sin(angles) + q[:, 1:] * np.cos(angles)
+        smin = s.min(axis=0)
+        b = ((s - smin) / bin_m).astype(np.int64)
+        nb = int(b.max()) + 1
+        acc = np.bincount((b + np.arange(len(angles)) * nb).ravel(), minlength=nb * len(angles))
+        acc = acc.reshape(len(angles), nb)
+        acc = acc[:, :-2] + acc[:, 1:-1] + acc[:, 2:] if nb > 2 else acc
+        ia, ib = divmod(int(acc.argmax()), acc.shape[1])
+        want = (float(angles[ia]), float(smin[ia] + (ib + (1 if nb > 2 else 0) + 0.5) * bin_m))
+        assert best_direction(q, angles, bin_m) == want
 
 
 def test_edge_line_direction_row_medians_are_nanmedians() -> None:

@@ -18,14 +18,14 @@ def best_direction(
 
     Returns the angle (radians) and the offset of the peak bin centre.
     """
-    ca, sa = np.cos(angles), np.sin(angles)
-    # offsets across the band for every angle: (m, n_angles)
-    s = -q[:, :1] * sa + q[:, 1:] * ca
-    smin = s.min(axis=0)
-    b = ((s - smin) / bin_m).astype(np.int64)
-    nb = int(b.max()) + 1
-    flat = b + np.arange(len(angles)) * nb
-    acc = np.bincount(flat.ravel(), minlength=nb * len(angles)).reshape(len(angles), nb)
+    from pyheracles.beams.extents import offset_histograms
+
+    # histogram of the offsets across the band for every angle: (n_angles, bins)
+    acc, smin = offset_histograms(
+        np.ascontiguousarray(q[:, 0]), np.ascontiguousarray(q[:, 1]),
+        np.sin(angles), np.cos(angles), float(bin_m),
+    )  # fmt: skip
+    nb = acc.shape[1]
     # a band is wider than one bin: score a 3-bin window
     acc = acc[:, :-2] + acc[:, 1:-1] + acc[:, 2:] if nb > 2 else acc
     k = int(acc.argmax())

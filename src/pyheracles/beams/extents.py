@@ -1,13 +1,20 @@
-"""Compiled extreme order statistics of a band's offsets across many directions.
+"""Compiled statistics of a band's offsets across many directions.
 
-Why hand-written (numba): :func:`~pyheracles.beams.bands.sharpest_direction` needs,
-for each of 41-81 directions, the 0.5 % and 99.5 % quantiles of up to 3,000
-offsets, i.e. the 15-16 smallest and largest of them.  ``np.quantile`` partitions
-every direction's offsets in full; keeping the few extreme values in two small
-sorted buffers reads each offset once.  The offsets are computed as numpy
-computes ``-x * sin(a) + y * cos(a)`` (no fused multiply-add without
-``fastmath``), with the sines and cosines taken by numpy, so the order
-statistics, and the quantiles interpolated from them, are numpy's to the bit.
+Why hand-written (numba): the straight bands of a facet are found by looking at
+the offsets of its points across each of many directions (:mod:`pyheracles.beams.bands`):
+
+- :func:`offset_histograms`, the Hough accumulator of ``best_direction`` (180
+  directions x 4,000 points per band): numpy made several ``(points,
+  directions)`` temporaries of offsets and bin numbers;
+- :func:`extreme_order_statistics`, for ``sharpest_direction``: for each of 41-81
+  directions the 0.5 % and 99.5 % quantiles of up to 3,000 offsets, i.e. the
+  15-16 smallest and largest of them, where ``np.quantile`` partitions every
+  direction's offsets in full; two small sorted buffers read each offset once.
+
+The offsets are computed as numpy computes ``-x * sin(a) + y * cos(a)`` (no fused
+multiply-add without ``fastmath``), with the sines and cosines taken by numpy, so
+the histograms, the order statistics and the quantiles interpolated from them
+are numpy's to the bit.
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["extreme_order_statistics"]
+__all__ = ["extreme_order_statistics", "offset_histograms"]
 
 
 @njit(cache=True)
@@ -80,3 +87,41 @@ def extreme_order_statistics(
         out[a, 2] = high[0]
         out[a, 3] = high[hi_next - hi_prev]
     return out
+
+
+@njit(cache=True)
+def offset_histograms(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    sin_a: NDArray[np.float64],
+    cos_a: NDArray[np.float64],
+    bin_m: float,
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Histograms of the offsets ``-x * sin_a[j] + y * cos_a[j]`` for every direction.
+
+    Returns ``acc`` (``(len(sin_a), n_bins)``: counts of bins ``bin_m`` wide from each
+    direction's smallest offset, one number of bins for all) and those smallest
+    offsets: the Hough accumulator of :func:`~pyheracles.beams.bands.best_direction`
+    without its ``(points, directions)`` temporaries (the same numbers).
+    """
+    n_a = sin_a.shape[0]
+    m = x.shape[0]
+    smin = np.empty(n_a)
+    n_bins = 1
+    for a in range(n_a):
+        sa, ca = sin_a[a], cos_a[a]
+        lo = np.inf
+        hi = -np.inf
+        for i in range(m):
+            v = (-x[i]) * sa + y[i] * ca
+            lo = min(lo, v)
+            hi = max(hi, v)
+        smin[a] = lo
+        n_bins = max(n_bins, int((hi - lo) / bin_m) + 1)
+    acc = np.zeros((n_a, n_bins), np.int64)
+    for a in range(n_a):
+        sa, ca, lo = sin_a[a], cos_a[a], smin[a]
+        for i in range(m):
+            v = (-x[i]) * sa + y[i] * ca
+            acc[a, int((v - lo) / bin_m)] += 1
+    return acc, smin
