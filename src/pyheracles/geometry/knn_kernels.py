@@ -516,11 +516,16 @@ def knn_covariance_pca(
     vals: NDArray[np.float64],
     vmin: NDArray[np.float64],
     vmax: NDArray[np.float64],
+    table_d2: NDArray[np.float64],
+    table_idx: NDArray[np.int64],
 ) -> int:
     """Exact k-NN PCA of every point; results written at ``order[p]`` (input order).
 
     ``pts`` and ``keys`` are sorted by key; returns how many points needed a
-    search at a coarser level than their work cell (for diagnostics)."""
+    search at a coarser level than their work cell (for diagnostics).  With
+    ``table_idx`` of ``N`` rows, the neighbour table is written instead of the
+    PCA: ``table_idx[i]`` the input indices of the ``k`` nearest neighbours of
+    point ``i`` by increasing squared distance ``table_d2[i]`` (ties by index)."""
     n_cells = levels.shape[0]
     # Scratch arrays are allocated once per chunk of work cells, not per cell:
     # allocations inside a parallel loop cost more than the search itself.
@@ -576,6 +581,7 @@ def knn_covariance_pca(
                 pts, keys, order, starts, fine_max, lo, h0, k, directions,
                 vals, vmin, vmax, w, lev0, cx0, cy0, cz0, cmax, n_cand, bx, by, bz, bidx,
                 dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
+                table_d2, table_idx,
             )  # fmt: skip
     return promoted.sum()
 
@@ -673,58 +679,109 @@ def _select_set(dbuf, bidx, cidx, n_cand, k, bd, bi, guess, bound):
     return k
 
 
+@njit(cache=True, inline="always")
+def _nearest(
+    pts, keys, fine_max, lo, h0, k, p, lev0, cx0, cy0, cz0, cmax, h_w, guess, n_cand,
+    bx, by, bz, bidx, dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit,
+):  # fmt: skip
+    """The ``k`` nearest neighbours of point ``p`` of a work cell of level ``lev0``.
+
+    Returns ``(filled, promoted, guess)``: ``bi[:filled]`` (sorted positions) are the
+    neighbours, as a set when the cell's block held them (``bd[filled - 1]`` is the
+    k-th squared distance, the rest of ``bd`` scratch) and sorted by distance when
+    the search went up a level (``promoted`` levels); ``guess`` is the k-th
+    distance expected for the next point of the cell.
+    """
+    promoted = 0
+    px, py, pz = pts[p, 0], pts[p, 1], pts[p, 2]
+    for j in range(n_cand):  # vectorised by the compiler
+        ex = bx[j] - px
+        ey = by[j] - py
+        ez = bz[j] - pz
+        dbuf[j] = ex * ex + ey * ey + ez * ez
+    # The k nearest as a set (the covariance needs no order): a distance
+    # threshold is bracketed by branch-free counts, starting from the
+    # previous point's k-th distance (a neighbour in the same cell), then
+    # the few extra candidates under it are dropped.  Beyond the block's
+    # exactness bound nothing can be accepted; if fewer than k candidates
+    # are within it, all of them are ranked and the search goes up a level.
+    bound = _bound2(pts, p, lo, h_w, cx0, cy0, cz0, cmax)
+    filled = _select_set(dbuf, bidx, cidx, n_cand, k, bd, bi, guess, bound)
+    if filled < k:
+        filled = _select(dbuf, bidx, cidx, n_cand, k, bd, bi, np.inf)
+    next_guess = 2.25 * bd[k - 1] if filled == k else np.inf
+    lev = lev0
+    while not (filled == k and bd[k - 1] <= bound):
+        # go up to the level whose cells are at least the k-th distance
+        lev += 1
+        if filled == k:
+            kth = np.sqrt(bd[k - 1])
+            while h0 * (1 << lev) < kth and lev < BITS:
+                lev += 1
+        lev = min(lev, BITS)
+        h = h0 * (1 << lev)
+        cx = cx0 >> (lev - lev0)
+        cy = cy0 >> (lev - lev0)
+        cz = cz0 >> (lev - lev0)
+        for a in range(3):
+            cmax2[a] = fine_max[a] >> lev
+        n_r2 = _block_ranges(keys, cx, cy, cz, lev, cmax2, ranges2)
+        filled = _block_search(
+            pts, p, lo, h, cx, cy, cz, k, bd, bi, ranges2, n_r2, cell_d2, visit
+        )
+        bound = _bound2(pts, p, lo, h, cx, cy, cz, cmax2)
+        if lev == BITS:
+            break
+        promoted += 1
+    return filled, promoted, next_guess
+
+
+@njit(cache=True, inline="always")
+def _table_row(pts, order, p, filled, bi, table_d2, table_idx):
+    """Row ``order[p]`` of the neighbour table: the ``filled`` neighbours ``bi`` (sorted
+    positions) by increasing squared distance, ties by input index."""
+    o = order[p]
+    px, py, pz = pts[p, 0], pts[p, 1], pts[p, 2]
+    for j in range(filled):
+        q = bi[j]
+        dx = pts[q, 0] - px
+        dy = pts[q, 1] - py
+        dz = pts[q, 2] - pz
+        d = dx * dx + dy * dy + dz * dz
+        i = order[q]
+        t = j
+        while t > 0 and (
+            table_d2[o, t - 1] > d or (table_d2[o, t - 1] == d and table_idx[o, t - 1] > i)
+        ):
+            table_d2[o, t] = table_d2[o, t - 1]
+            table_idx[o, t] = table_idx[o, t - 1]
+            t -= 1
+        table_d2[o, t] = d
+        table_idx[o, t] = i
+
+
 @njit(cache=True)
 def _work_cell(
     pts, keys, order, starts, fine_max, lo, h0, k, directions,
     vals, vmin, vmax, w, lev0, cx0, cy0, cz0, cmax, n_cand, bx, by, bz, bidx,
     dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit, cov6, mat, jv, jw, v3, n1, d1,
+    table_d2, table_idx,
 ):  # fmt: skip
     """All points of work cell ``w`` (see :func:`knn_covariance_pca`); the
     candidates of its 3 x 3 x 3 block are in the buffers ``bx, by, bz, bidx``."""
+    table = table_idx.shape[0] > 0
     promoted = 0
     h_w = h0 * (1 << lev0)
     guess = np.inf  # k-th squared distance expected from the previous point
     for p in range(starts[w], starts[w + 1]):
-        px, py, pz = pts[p, 0], pts[p, 1], pts[p, 2]
-        for j in range(n_cand):  # vectorised by the compiler
-            ex = bx[j] - px
-            ey = by[j] - py
-            ez = bz[j] - pz
-            dbuf[j] = ex * ex + ey * ey + ez * ez
-        # The k nearest as a set (the covariance needs no order): a distance
-        # threshold is bracketed by branch-free counts, starting from the
-        # previous point's k-th distance (a neighbour in the same cell), then
-        # the few extra candidates under it are dropped.  Beyond the block's
-        # exactness bound nothing can be accepted; if fewer than k candidates
-        # are within it, all of them are ranked and the search goes up a level.
-        bound = _bound2(pts, p, lo, h_w, cx0, cy0, cz0, cmax)
-        filled = _select_set(dbuf, bidx, cidx, n_cand, k, bd, bi, guess, bound)
-        if filled < k:
-            filled = _select(dbuf, bidx, cidx, n_cand, k, bd, bi, np.inf)
-        guess = 2.25 * bd[k - 1] if filled == k else np.inf
-        lev = lev0
-        while not (filled == k and bd[k - 1] <= bound):
-            # go up to the level whose cells are at least the k-th distance
-            lev += 1
-            if filled == k:
-                kth = np.sqrt(bd[k - 1])
-                while h0 * (1 << lev) < kth and lev < BITS:
-                    lev += 1
-            lev = min(lev, BITS)
-            h = h0 * (1 << lev)
-            cx = cx0 >> (lev - lev0)
-            cy = cy0 >> (lev - lev0)
-            cz = cz0 >> (lev - lev0)
-            for a in range(3):
-                cmax2[a] = fine_max[a] >> lev
-            n_r2 = _block_ranges(keys, cx, cy, cz, lev, cmax2, ranges2)
-            filled = _block_search(
-                pts, p, lo, h, cx, cy, cz, k, bd, bi, ranges2, n_r2, cell_d2, visit
-            )
-            bound = _bound2(pts, p, lo, h, cx, cy, cz, cmax2)
-            if lev == BITS:
-                break
-            promoted += 1
+        filled, up, guess = _nearest(
+            pts, keys, fine_max, lo, h0, k, p, lev0, cx0, cy0, cz0, cmax, h_w, guess, n_cand,
+            bx, by, bz, bidx, dbuf, cidx, bd, bi, cmax2, ranges2, cell_d2, visit,
+        )  # fmt: skip
+        promoted += up
+        if table:
+            _table_row(pts, order, p, filled, bi, table_d2, table_idx)
+            continue
         # covariance about the neighbours' mean
         mx = my = mz = 0.0
         for j in range(filled):

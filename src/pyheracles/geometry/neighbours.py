@@ -377,9 +377,46 @@ def octree_pca(
     vmax = np.empty((n, 3)) if directions else np.empty((0, 3))
     kern.knn_covariance_pca(
         spts, skeys, order, starts, levels, codes, fine_max, lo, h0, int(k), directions,
-        vals, vmin, vmax,
+        vals, vmin, vmax, np.empty((0, 0)), np.empty((0, 0), np.int64),
     )  # fmt: skip
     return vals, vmin, (vmax if directions else None)
+
+
+def octree_knn(
+    xyz: ArrayLike, k: int, *, max_leaf: int = _MAX_LEAF
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The ``k`` nearest neighbours of every point by the compiled octree search.
+
+    The table :func:`knn` gives (distances and indices, ``(N, k)``, by increasing
+    distance, ties by index), 2-4x faster than the KD-tree query on 2 cores:
+    the search of :func:`octree_pca` (see :mod:`pyheracles.geometry.knn_kernels`)
+    writing the neighbours instead of their covariance.  Distances are the
+    square roots of the same sums of squares as scipy's, so the table equals
+    ``knn``'s wherever no two neighbours tie at the ``k``-th distance.
+    """
+    from pyheracles.geometry import knn_kernels as kern  # numba compiles on first import
+
+    arr = as_xyz(xyz)
+    n = len(arr)
+    if not 1 <= k <= n:
+        raise InputError(f"k must be between 1 and the number of points ({n}), got {k}")
+    lo, hi = kern.bounding_box(arr)
+    side = float((hi - lo).max()) or 1.0
+    h0 = side * (1.0 + 1e-9) / float(1 << kern.BITS)
+    inv_h0 = 1.0 / h0
+    fine_max = np.minimum(((hi - lo) * inv_h0).astype(np.int64), (1 << kern.BITS) - 1)
+    keys = kern.morton_keys(arr, lo, inv_h0)
+    order = kern.radix_argsort(keys, 3 * kern.BITS)
+    spts, skeys = kern.gather_sorted(arr, keys, order)
+    starts, levels, codes = kern.work_cells(skeys, max(int(max_leaf), 1))
+    d2 = np.empty((n, k))
+    idx = np.empty((n, k), np.int64)
+    none = np.empty((0, 3))
+    kern.knn_covariance_pca(
+        spts, skeys, order, starts, levels, codes, fine_max, lo, h0, int(k), False,
+        none, none, none, d2, idx,
+    )  # fmt: skip
+    return np.sqrt(d2, out=d2), idx
 
 
 @dataclass(frozen=True)

@@ -52,9 +52,8 @@ from scipy.spatial import cKDTree
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import (
     as_xyz,
-    build_tree,
-    knn,
     local_pca,
+    octree_knn,
     orient_normals,
     point_spacing,
     symmetric_eigen3,
@@ -356,9 +355,8 @@ def _knn_edge_terms(
 def _point_level(
     xyz: NDArray[np.float64], params: RegionGrowingParams, tree: cKDTree | None
 ) -> Regions:
-    if tree is None:
-        tree = build_tree(xyz)
-    _, idx = knn(xyz, params.k, tree=tree)
+    del tree  # the compiled octree search is 2-4x faster than querying the tree
+    _, idx = octree_knn(xyz, int(min(params.k, len(xyz))))
     pca = local_pca(xyz, indices=idx, directions=False)
     normals = orient_normals(xyz, pca.normals)
     n, k = idx.shape
@@ -484,7 +482,9 @@ def region_growing(
         :class:`RegionGrowingParams`; automatic thresholds are resolved from the
         data and returned in ``Regions.params``.
     tree
-        Shared KD-tree on ``xyz``.
+        Shared KD-tree on ``xyz``, for the voxel level's point spacing (the point
+        level's neighbours come from the compiled octree search,
+        :func:`~pyheracles.geometry.neighbours.octree_knn`).
 
     Returns
     -------
