@@ -7,7 +7,14 @@ from __future__ import annotations
 import numpy as np
 
 from pyheracles.beams.bands import across_quantiles, best_direction, edge_line_direction
-from pyheracles.beams.deflection import BoxIndex, member_shape, member_shapes, near_beams
+from pyheracles.beams.deflection import (
+    BoxIndex,
+    ShapeParams,
+    member_shape,
+    member_shapes,
+    near_beams,
+    search_box,
+)
 from pyheracles.beams.model import BeamCuboid
 from pyheracles.segment.edge_kernels import knn_edge_terms
 
@@ -116,7 +123,10 @@ def test_box_queries_and_points_near_other_beams() -> None:
         lo, hi = np.array(lo, float), np.array(hi, float)
         want = np.flatnonzero(np.all((xyz >= lo) & (xyz <= hi), axis=1))
         assert np.array_equal(index.query(lo, hi), want)
-    count, which = near_beams(xyz, beams, 0.012, index)
+    boxes, count, which = near_beams(xyz, beams, ShapeParams(surface_tol_m=0.012), index)
+    for b, (found, loc) in zip(beams, boxes, strict=True):
+        assert np.array_equal(found, index.query(*search_box(b, ShapeParams())))
+        assert np.allclose(loc, (xyz[found] - b.centre) @ b.axes)
     d = np.array([b.signed_distance(xyz) for b in beams])
     assert np.array_equal(count, (d <= 0.012).sum(axis=0))
     one = count == 1
@@ -130,3 +140,20 @@ def test_box_queries_and_points_near_other_beams() -> None:
         one_by_one = member_shape(xyz, b, labels == i + 1, other=labels > 0,
                                   others=beams[:i] + beams[i + 1:])  # fmt: skip
         assert str(one_by_one) == str(shapes[i])
+
+
+def test_one_blas_thread_limits_blas_inside_and_restores_it() -> None:
+    from threadpoolctl import threadpool_info
+
+    from pyheracles.resources import one_blas_thread
+
+    def blas_threads() -> list[int]:
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = blas_threads()
+    a = np.random.default_rng(6).normal(size=(50_000, 3))
+    with one_blas_thread():
+        assert blas_threads() and set(blas_threads()) == {1}
+        inside = a @ np.eye(3)[::-1]
+    assert blas_threads() == before
+    assert np.array_equal(inside, a @ np.eye(3)[::-1])

@@ -45,6 +45,7 @@ __all__ = [
     "member_shape",
     "member_shapes",
     "near_beams",
+    "search_box",
 ]
 
 Array = NDArray[np.float64]
@@ -386,6 +387,7 @@ def member_shape(
     others: Sequence[BeamCuboid] = (),
     index: BoxIndex | None = None,
     blocked: NDArray[np.bool_] | None = None,
+    box: tuple[NDArray[np.int64], Array] | None = None,
 ) -> MemberShape:
     """Deflection and twist of one beam from its points.
 
@@ -410,6 +412,9 @@ def member_shape(
     blocked
         ``(N,)`` points within ``surface_tol_m`` of another beam's cuboid, found
         once for all beams (:func:`near_beams`); replaces ``others``.
+    box
+        The points of the beam's search box and their local coordinates, from
+        :func:`near_beams`; replaces ``index``.
 
     Returns
     -------
@@ -426,21 +431,28 @@ def member_shape(
     if not own.any():
         return _empty(0, "no points")
     # candidates of the later passes: near the straight cuboid, not another beam's
-    longer = replace(cub, length=cub.length + 2 * p.extend_m).corners()
-    lo, hi = longer.min(axis=0) - p.search_m, longer.max(axis=0) + p.search_m
-    box = (index or BoxIndex(xyz)).query(lo, hi)
+    lo, hi = search_box(cub, p)
+    if box is None:
+        found = (index or BoxIndex(xyz)).query(lo, hi)
+        found_loc = _local(cub, xyz[found])
+    else:
+        found, found_loc = box
+    use = np.ones(len(found), dtype=bool)
     if other is not None:
-        box = box[~other[box] | own[box]]
+        use &= ~other[found] | own[found]
     if blocked is not None:
-        box = box[own[box] | ~blocked[box]]
+        use &= own[found] | ~blocked[found]
     for oc in others if blocked is None else ():
         c = oc.corners()
         if np.any(c.max(axis=0) < lo) or np.any(c.min(axis=0) > hi):
             continue
-        pts = xyz[box]
-        box = box[own[box] | (oc.signed_distance(pts) > p.surface_tol_m)]
-    cand = _local(cub, xyz[box])
-    loc = _local(cub, xyz[own])  # first pass: the beam's own (labelled) points
+        use &= own[found] | (oc.signed_distance(xyz[found]) > p.surface_tol_m)
+    cand = found_loc[use]
+    own_found = own[found]
+    if int(own_found.sum()) == int(own.sum()):  # first pass: the beam's own points
+        loc = found_loc[own_found]
+    else:  # some lie out of the search box
+        loc = _local(cub, xyz[own])
     corr = None
     for _ in range(p.passes):
         sl = _slices(loc, cub, corr, p)
@@ -566,8 +578,7 @@ def member_shapes(
         raise InputError(f"labels must have one value per point ({len(xyz)}), got {labels.shape}")
     assigned = labels > 0
     beams = list(beams)
-    index = BoxIndex(xyz)
-    count, which = near_beams(xyz, beams, p.surface_tol_m, index)
+    boxes, count, which = near_beams(xyz, beams, p, BoxIndex(xyz))
     return [
         member_shape(
             xyz,
@@ -575,35 +586,61 @@ def member_shapes(
             labels == i + 1,
             p,
             other=assigned,
-            index=index,
             blocked=(count >= 2) | ((count == 1) & (which != i)),
+            box=boxes[i],
         )
         for i, cub in enumerate(beams)
     ]
 
 
-def near_beams(
-    xyz: Array, beams: Sequence[BeamCuboid], tol: float, index: BoxIndex | None = None
-) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
-    """How many cuboids each point lies inside or within ``tol`` of, and the last one.
+def search_box(cub: BeamCuboid, params: ShapeParams) -> tuple[Array, Array]:
+    """Lower and upper corners of the box searched for a beam's points: the cuboid
+    ``extend_m`` longer at both ends, widened by ``search_m``."""
+    longer = replace(cub, length=cub.length + 2 * params.extend_m).corners()
+    return longer.min(axis=0) - params.search_m, longer.max(axis=0) + params.search_m
 
-    Returns ``count`` and ``which`` (0-based beam, -1 for none), both ``(N,)``:
-    a point is near another beam than ``i`` when ``count >= 2``, or ``count == 1``
-    and ``which != i``.  Each cuboid's distances are taken once, on the points of
-    its bounding box widened by ``tol`` (a point outside it is farther than ``tol``),
-    not once per pair of beams: on a 1 M-point roof the pairs took most of the
-    frame's time, a rafter's box holding half of the roof.
+
+def near_beams(
+    xyz: Array, beams: Sequence[BeamCuboid], params: ShapeParams, index: BoxIndex
+) -> tuple[list[tuple[NDArray[np.int64], Array]], NDArray[np.int32], NDArray[np.int32]]:
+    """Each beam's search box, and how many cuboids each point is near.
+
+    Returns the points of each beam's :func:`search_box` with their coordinates
+    in the beam's frame (axis, width, height), then ``count`` and ``which``, both
+    ``(N,)``: how many cuboids a point lies inside or within ``surface_tol_m`` of
+    (the search box holds every such point) and the last of them (0-based, -1
+    for none).  A point is near another beam than ``i`` when ``count >= 2``, or
+    ``count == 1`` and ``which != i``.  Found once per beam, not once per pair of
+    beams (a rafter's box holds half of a roof), and the coordinates serve
+    :func:`member_shape` too.
     """
-    idx = index or BoxIndex(xyz)
     count = np.zeros(len(xyz), dtype=np.int32)
     which = np.full(len(xyz), -1, dtype=np.int32)
+    boxes = []
     for j, cub in enumerate(beams):
-        c = cub.corners()
-        box = idx.query(c.min(axis=0) - tol, c.max(axis=0) + tol)
-        hit = box[cub.signed_distance(xyz[box]) <= tol]
+        found = index.query(*search_box(cub, params))
+        loc = _local(cub, xyz[found])
+        hit = found[_signed_distance_local(loc, cub.half_extents) <= params.surface_tol_m]
         count[hit] += 1
         which[hit] = j
-    return count, which
+        boxes.append((found, loc))
+    return boxes, count, which
+
+
+def _signed_distance_local(loc: Array, half: Array) -> Array:
+    """:meth:`BeamCuboid.signed_distance` of points given in the beam's frame (the
+    same operations, so the same numbers)."""
+    q = np.abs(loc) - half
+    q0, q1, q2 = q[:, 0], q[:, 1], q[:, 2]
+    inside = np.maximum(np.maximum(q0, q1), q2)
+    np.minimum(inside, 0.0, out=inside)
+    np.maximum(q, 0.0, out=q)
+    q *= q
+    dist = q0 + q1
+    dist += q2
+    np.sqrt(dist, out=dist)
+    dist += inside
+    return dist
 
 
 class BoxIndex:

@@ -180,6 +180,7 @@ def register(app: typer.Typer) -> None:
         from pyheracles.io import read_cloud
         from pyheracles.io.atomic import atomic_write_json
         from pyheracles.io.results import write_segmentation
+        from pyheracles.resources import one_blas_thread
         from pyheracles.segment.regiongrow import RegionGrowingParams
 
         params = BeamParams(
@@ -196,13 +197,13 @@ def register(app: typer.Typer) -> None:
                 cloud = read_cloud(cloud_path).validate(what=f"point cloud {cloud_path}")
             timings["read"] = time.perf_counter() - t
             t = time.perf_counter()
-            with progress.stage("beams: facets, bands, cuboids"):
+            with progress.stage("beams: facets, bands, cuboids"), one_blas_thread():
                 result = segment_beams(cloud, params)
             timings["beams"] = time.perf_counter() - t
             frame = None
             if not no_frame:
                 t = time.perf_counter()
-                with progress.stage("frame: joints, roles, deflection, twist"):
+                with progress.stage("frame: joints, roles, deflection, twist"), one_blas_thread():
                     frame = analyse_frame(cloud.xyz, result)
                 timings["frame"] = time.perf_counter() - t
             t = time.perf_counter()

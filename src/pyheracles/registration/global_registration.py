@@ -37,7 +37,6 @@ rotation and translation.  The pipeline (Rusu et al. 2009; Zhou, Park & Koltun
 
 from __future__ import annotations
 
-import functools
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -46,7 +45,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
-from threadpoolctl import ThreadpoolController
 
 from pyheracles import progress
 from pyheracles.cloud import PointCloud
@@ -64,6 +62,7 @@ from pyheracles.registration.features import (
     voxel_downsample,
 )
 from pyheracles.registration.icp import ICPParams, ICPResult, estimate_normals, icp
+from pyheracles.resources import one_blas_thread
 
 __all__ = [
     "GlobalRegistrationParams",
@@ -564,14 +563,8 @@ def global_registration(
     # every matrix product here is thin (N x 3, 6 x N, blocks of 256 descriptors): a
     # second BLAS thread only busy-waits, and on a shared machine it stalls the
     # product whenever the other core is taken
-    with _blas_controller().limit(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _register(src, tgt, p)
-
-
-@functools.cache
-def _blas_controller() -> ThreadpoolController:
-    """The BLAS libraries loaded (looked up once: the look-up takes milliseconds)."""
-    return ThreadpoolController()
 
 
 def _register(
