@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -200,37 +201,54 @@ def register(app: typer.Typer) -> None:
             with progress.stage("beams: facets, bands, cuboids"), one_blas_thread():
                 result = segment_beams(cloud, params)
             timings["beams"] = time.perf_counter() - t
-            frame = None
-            if not no_frame:
-                t = time.perf_counter()
-                with progress.stage("frame: joints, roles, deflection, twist"), one_blas_thread():
-                    frame = analyse_frame(cloud.xyz, result)
-                timings["frame"] = time.perf_counter() - t
-            t = time.perf_counter()
-            with progress.stage("writing segmented.laz, objects, frame.json, beams.png"):
-                seg = result.to_segmentation(cloud.offset)
-                extra = {"n_beams": len(result.beams)}
-                if frame is not None:
-                    for name, column in frame.member_columns().items():
-                        seg.objects[name] = column
-                    extra.update(n_joints=len(frame.joints), n_in_frame=int(frame.in_frame.sum()))
-                paths = write_segmentation(
-                    cloud,
-                    seg,
-                    stage,
-                    step="beams",
-                    parameters=result.params,
-                    inputs=[cloud_path],
-                    timings={**timings, **{f"beams.{k}": v for k, v in result.timings.items()}},
-                    extra=extra,
-                )
-                if frame is not None:
-                    paths["frame"] = atomic_write_json(
-                        stage / "frame.json",
-                        frame.to_json(result, cloud.offset, n_points=len(cloud.xyz)),
-                    )
+            # The picture is drawn on a second thread while the frame is analysed and
+            # the cloud written: matplotlib's import and drawing are mostly Python,
+            # the frame and the LAZ compression mostly numpy and Rust that release
+            # the interpreter, so on two cores they overlap (about 1 s of the 1 M-point
+            # run).  Only that thread touches matplotlib.
+            pool = ThreadPoolExecutor(max_workers=1)
+            try:
+                picture = None
                 if not no_picture:
-                    paths["picture"] = plot_beams(cloud.xyz, result, stage / "beams.png")
+                    picture = pool.submit(plot_beams, cloud.xyz, result, stage / "beams.png")
+                frame = None
+                if not no_frame:
+                    t = time.perf_counter()
+                    with (
+                        progress.stage("frame: joints, roles, deflection, twist"),
+                        one_blas_thread(),
+                    ):
+                        frame = analyse_frame(cloud.xyz, result)
+                    timings["frame"] = time.perf_counter() - t
+                t = time.perf_counter()
+                with progress.stage("writing segmented.laz, objects, frame.json, beams.png"):
+                    seg = result.to_segmentation(cloud.offset)
+                    extra = {"n_beams": len(result.beams)}
+                    if frame is not None:
+                        for name, column in frame.member_columns().items():
+                            seg.objects[name] = column
+                        extra.update(
+                            n_joints=len(frame.joints), n_in_frame=int(frame.in_frame.sum())
+                        )
+                    paths = write_segmentation(
+                        cloud,
+                        seg,
+                        stage,
+                        step="beams",
+                        parameters=result.params,
+                        inputs=[cloud_path],
+                        timings={**timings, **{f"beams.{k}": v for k, v in result.timings.items()}},
+                        extra=extra,
+                    )
+                    if frame is not None:
+                        paths["frame"] = atomic_write_json(
+                            stage / "frame.json",
+                            frame.to_json(result, cloud.offset, n_points=len(cloud.xyz)),
+                        )
+                    if picture is not None:
+                        paths["picture"] = picture.result()
+            finally:
+                pool.shutdown()
             if ifc:
                 with progress.stage("IFC model"):
                     paths["ifc"] = write_model_ifc(stage)

