@@ -8,7 +8,15 @@ from numpy.typing import NDArray
 from pyheracles.walls.model import Array, Opening, WallParams
 from pyheracles.walls.openings import merge_lights, refine_edges
 
-__all__ = ["floor_levels", "mask_polygon", "occupancy", "simplify_ring", "wall_outline"]
+__all__ = [
+    "dense_cells",
+    "floor_levels",
+    "mask_polygon",
+    "occupancy",
+    "simplify_ring",
+    "slim_runs",
+    "wall_outline",
+]
 
 
 def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
@@ -45,6 +53,37 @@ def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
     return out
 
 
+def dense_cells(ij: NDArray[np.int64], shape: tuple[int, ...], share: float = 0.25,
+                size: int = 7) -> NDArray[np.bool_]:  # fmt: skip
+    """Cells of one face's points ``ij`` where the face is dense: the points in the
+    ``size`` cells square around (0.35 m at 5 cm) at least ``share`` of the median of
+    that count over the column's covered cells.
+
+    Multipath returns of a face's points dropped 0.2-1.5 m straight down lie on its
+    plane, below its foot, a point here and there (church draws 8 and 9: 15-40 points
+    over a square metre under a door, a tenth to a hundredth of the face's density
+    above): they cover cells, and the lowest covered cell, the envelope's foot, sank
+    with them by up to a metre, and the empty band between them and the face joined a
+    door's hole (draw 9's north door 13.7 m wide; draw 8's west door ran on to the
+    wall's end and was lost).  A column of a face scanned from afar is sparse from its
+    foot to its top alike and keeps its cells; a face's edge row keeps half its
+    square's count.
+    """
+    from scipy import ndimage
+
+    cnt = np.zeros(shape, dtype=np.float64)
+    np.add.at(cnt, (ij[:, 0], ij[:, 1]), 1.0)
+    occ = cnt > 0
+    if not occ.any():
+        return occ
+    pts = ndimage.uniform_filter(cnt, size=size, mode="constant") * size * size
+    ref = np.nanmedian(np.where(occ, pts, np.nan)[occ.any(axis=1)], axis=1)
+    out = np.zeros(shape, dtype=bool)
+    rows = np.flatnonzero(occ.any(axis=1))
+    out[rows] = occ[rows] & (pts[rows] >= share * ref[:, None])
+    return out
+
+
 def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.bool_],
                  uz_all: Array,
                  near: NDArray[np.bool_], behind: NDArray[np.bool_], front: NDArray[np.bool_],
@@ -70,7 +109,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     occ = occupancy(ij, shape, face_of)
     cols = np.flatnonzero(occ.any(axis=1))
     nu = shape[0]
-    bot = _foot(occ, c)
+    dense = [dense_cells(ij[face_of == f], shape) for f in np.unique(face_of)]
+    bot = _foot(np.logical_or.reduce(dense), c)
     top = np.where(occ, np.arange(shape[1])[None, :], -1).max(axis=1)
     keep = np.zeros(nu, dtype=bool)
     keep[cols.min() : cols.max() + 1] = True
@@ -80,15 +120,11 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     top = ndimage.maximum_filter1d(top, max(1, round(0.3 / c)), mode="nearest")
     rows = np.arange(shape[1])[None, :]
     env = keep[:, None] & (rows >= bot[:, None]) & (rows <= top[:, None])
-    holes = env & ~occ
+    holes = slim_runs(env & ~occ, max(1, int(np.ceil(p.min_opening_m / c))))
     lab, k = ndimage.label(holes)
     openings: list[Opening] = []
     if k:
-        feet = []  # each face's own foot (floor inside, ground outside)
-        for f in np.unique(face_of):
-            fo = np.zeros(shape, dtype=bool)
-            fo[ij[face_of == f, 0], ij[face_of == f, 1]] = True
-            feet.append(_foot(fo, c))
+        feet = [_foot(fo, c) for fo in dense]  # each face's own (floor, ground)
         step = max(2, int(np.ceil(p.door_step_m / c)) + 1)
         # points through the wall plane, on the grid
         pij = np.floor((uz_all - lo) / c).astype(np.int64)
@@ -119,14 +155,15 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
             u0, u1 = lo[0] + sl[0].start * c, lo[0] + sl[0].stop * c
             z0, z1 = lo[1] + sl[1].start * c, lo[1] + sl[1].stop * c
             # the jambs: rows where the hole is (nearly) at its full width, below any
-            # round or pointed head (refining the sides in the head narrowed such windows)
-            # (doors keep their upper part: shadows merged at the foot widen them)
+            # round or pointed head (refining the sides in the head narrowed such
+            # windows, and round-headed doors: church draws 8 and 9, 13-15 cm narrow)
+            # (doors keep their upper part too: shadows merged at the foot widen them)
             # (the full width: the 75th percentile of the rows' widths, as a few rows
             # widened by a shadow or a gap at the foot would narrow the band to them)
             widths = region.sum(axis=0)
             full = np.flatnonzero(widths >= np.percentile(widths, 75) - 1)
-            jambs = None if at_foot else (lo[1] + (sl[1].start + full.min()) * c,
-                                          lo[1] + (sl[1].start + full.max() + 1) * c)  # fmt: skip
+            jambs = (lo[1] + (sl[1].start + full.min()) * c,
+                     lo[1] + (sl[1].start + full.max() + 1) * c)  # fmt: skip
             local = _edge_points(ij, on_plane, sl, region)
             u0, u1, z0, z1 = refine_edges(w_uz[local], face_of[local], u0, u1, z0, z1, c,
                                           at_foot, jambs)  # fmt: skip
@@ -176,6 +213,28 @@ def floor_levels(uz: Array, front: NDArray[np.bool_], side: NDArray[np.int64], u
     return out
 
 
+def slim_runs(holes: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
+    """``holes`` (columns along ``u``, rows up ``z``) without the vertical runs of
+    fewer than ``n`` cells: slivers along the foot or the top of the envelope or
+    between two faces' edges, thinner than any opening, that would join openings to
+    one another or to the wall's end (an opening is at least ``n`` cells high in its
+    every column but the corners of a round or pointed head, trimmed by a cell or
+    two at most).
+    """
+    if n <= 1 or not holes.any():
+        return holes
+    h = np.pad(holes, ((0, 0), (1, 1)))
+    d = np.diff(h.astype(np.int8), axis=1)
+    cols, starts = np.nonzero(d == 1)
+    _, ends = np.nonzero(d == -1)  # same order: row-major, one end per start
+    long = ends - starts >= n
+    cum = np.zeros((holes.shape[0], holes.shape[1] + 1), dtype=np.int32)
+    np.add.at(cum, (cols[long], starts[long]), 1)
+    np.add.at(cum, (cols[long], ends[long]), -1)
+    keep = np.cumsum(cum, axis=1)[:, :-1] > 0
+    return holes & keep
+
+
 def _threshold(z0: float, feet: list[float], step: float) -> float:
     """Foot of a door: the highest of the faces' feet under it (``feet``, m) between
     the grid's foot ``z0`` and ``step`` above it, else ``z0``.
@@ -189,9 +248,19 @@ def _threshold(z0: float, feet: list[float], step: float) -> float:
     return max([z0, *up])
 
 
-def _foot(occ: NDArray[np.bool_], c: float) -> NDArray[np.int64]:
+def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5) -> NDArray[np.int64]:
     """Lowest covered row per column, across empty columns from their neighbours, and
-    the lowest within 2.5 m (a door or an occluder does not lift the foot)."""
+    the lowest within 2.5 m but for the ``stray_m`` (m) of columns lowest there (a
+    door or an occluder does not lift the foot, a few stray cells do not lower it).
+
+    Returns below a face's foot (multipath ghosts of its points, dropped 0.2-1.5 m
+    straight down, on its plane) cover a cell here and there: with the plain lowest
+    row within 2.5 m, each such cell lowered the envelope's foot by up to a metre along
+    2.5 m of wall, and the empty band between it and the true foot joined a door's hole
+    (church draw 9's north door 13.7 m wide; draw 8's west door ran on to the wall's
+    end and was lost).  A door up to 2.5 m less ``stray_m`` wide still leaves that much
+    of true foot in every window over it.
+    """
     from scipy import ndimage
 
     nz = occ.shape[1]
@@ -201,7 +270,9 @@ def _foot(occ: NDArray[np.bool_], c: float) -> NDArray[np.int64]:
         return np.full(occ.shape[0], nz, dtype=np.int64)
     idx = np.arange(occ.shape[0])
     bot = np.interp(idx, idx[have], bot[have]).round().astype(np.int64)
-    return ndimage.minimum_filter1d(bot, max(3, round(2.5 / c)), mode="nearest")
+    size = max(3, round(2.5 / c))
+    rank = min(size - 1, round(stray_m / c))
+    return ndimage.rank_filter(bot, rank, size=size, mode="nearest")
 
 
 def _edge_points(ij: NDArray[np.int64], on_plane: NDArray[np.bool_], sl: tuple[slice, ...],
