@@ -357,12 +357,32 @@ def octree_pca(
     The algorithm, and why it is hand-written, is described in
     :mod:`pyheracles.geometry.knn_kernels`.
     """
-    from pyheracles.geometry import knn_kernels as kern  # numba compiles on first import
 
     arr = np.ascontiguousarray(xyz, dtype=np.float64)
     n = len(arr)
     if not 1 <= k <= n:
         raise InputError(f"k must be between 1 and the number of points ({n}), got {k}")
+    vals = np.empty((n, 3))
+    vmin = np.empty((n, 3))
+    vmax = np.empty((n, 3)) if directions else np.empty((0, 3))
+    _octree_search(arr, k, max_leaf, bounds, directions, (vals, vmin, vmax), None)
+    return vals, vmin, (vmax if directions else None)
+
+
+def _octree_search(
+    arr: NDArray[np.float64],
+    k: int,
+    max_leaf: int,
+    bounds: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+    directions: bool,
+    pca: tuple[NDArray[np.float64], ...] | None,
+    table: tuple[NDArray[np.float64], NDArray[np.int64]] | None,
+) -> None:
+    """Sort ``arr`` along its Morton curve, cut it into work cells and run the compiled
+    search, writing either the PCA (``pca``: eigenvalues, smallest and largest
+    eigenvectors) or the neighbour table (``table``: squared distances, indices)."""
+    from pyheracles.geometry import knn_kernels as kern  # numba compiles on first import
+
     lo, hi = bounds if bounds is not None else kern.bounding_box(arr)
     side = float((hi - lo).max()) or 1.0
     h0 = side * (1.0 + 1e-9) / float(1 << kern.BITS)
@@ -372,14 +392,13 @@ def octree_pca(
     order = kern.radix_argsort(keys, 3 * kern.BITS)
     spts, skeys = kern.gather_sorted(arr, keys, order)
     starts, levels, codes = kern.work_cells(skeys, max(int(max_leaf), 1))
-    vals = np.empty((n, 3))
-    vmin = np.empty((n, 3))
-    vmax = np.empty((n, 3)) if directions else np.empty((0, 3))
+    none = np.empty((0, 3))
+    vals, vmin, vmax = pca if pca is not None else (none, none, none)
+    d2, idx = table if table is not None else (np.empty((0, 0)), np.empty((0, 0), np.int64))
     kern.knn_covariance_pca(
         spts, skeys, order, starts, levels, codes, fine_max, lo, h0, int(k), directions,
-        vals, vmin, vmax, np.empty((0, 0)), np.empty((0, 0), np.int64),
+        vals, vmin, vmax, d2, idx,
     )  # fmt: skip
-    return vals, vmin, (vmax if directions else None)
 
 
 def octree_knn(
@@ -394,28 +413,13 @@ def octree_knn(
     square roots of the same sums of squares as scipy's, so the table equals
     ``knn``'s wherever no two neighbours tie at the ``k``-th distance.
     """
-    from pyheracles.geometry import knn_kernels as kern  # numba compiles on first import
-
     arr = as_xyz(xyz)
     n = len(arr)
     if not 1 <= k <= n:
         raise InputError(f"k must be between 1 and the number of points ({n}), got {k}")
-    lo, hi = kern.bounding_box(arr)
-    side = float((hi - lo).max()) or 1.0
-    h0 = side * (1.0 + 1e-9) / float(1 << kern.BITS)
-    inv_h0 = 1.0 / h0
-    fine_max = np.minimum(((hi - lo) * inv_h0).astype(np.int64), (1 << kern.BITS) - 1)
-    keys = kern.morton_keys(arr, lo, inv_h0)
-    order = kern.radix_argsort(keys, 3 * kern.BITS)
-    spts, skeys = kern.gather_sorted(arr, keys, order)
-    starts, levels, codes = kern.work_cells(skeys, max(int(max_leaf), 1))
     d2 = np.empty((n, k))
     idx = np.empty((n, k), np.int64)
-    none = np.empty((0, 3))
-    kern.knn_covariance_pca(
-        spts, skeys, order, starts, levels, codes, fine_max, lo, h0, int(k), False,
-        none, none, none, d2, idx,
-    )  # fmt: skip
+    _octree_search(arr, k, max_leaf, None, False, None, (d2, idx))
     return np.sqrt(d2, out=d2), idx
 
 
