@@ -113,12 +113,14 @@ def read_las(path: str | Path) -> PointCloud:
             path=p,
             hint="the header is damaged; export the file again",
         )
-    ints = np.column_stack([np.asarray(las.X), np.asarray(las.Y), np.asarray(las.Z)]).astype(
-        np.int64
-    )
-    kmin = ints.min(axis=0) if len(ints) else np.zeros(3, dtype=np.int64)
-    # origin on the file's own lattice at the minimum corner: exact integers times scale
-    xyz = (ints - kmin) * scale
+    # origin on the file's own lattice at the minimum corner: exact integers times scale,
+    # a column at a time (no (N, 3) integer copies: a fifth of reading 10 M points)
+    xyz = np.empty((len(las.points), 3))
+    kmin = np.zeros(3, dtype=np.int64)
+    for j, ints in enumerate((las.X, las.Y, las.Z)):
+        ints = np.asarray(ints)
+        kmin[j] = ints.min() if len(ints) else 0
+        np.multiply(np.subtract(ints, kmin[j], dtype=np.int64), scale[j], out=xyz[:, j])
     offset = file_offset + kmin * scale
     attrs: dict[str, NDArray[Any]] = {}
     for name in las.point_format.dimension_names:
