@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+import weakref
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -25,7 +27,43 @@ from pyheracles.labels import (
 )
 from pyheracles.provenance import write_run_json
 
-__all__ = ["ASPRS_GROUND", "ASPRS_UNCLASSIFIED", "write_objects_table", "write_segmentation"]
+__all__ = [
+    "ASPRS_GROUND",
+    "ASPRS_UNCLASSIFIED",
+    "write_objects_table",
+    "write_segmentation",
+    "written_labels",
+]
+
+#: The labelled cloud this process wrote last: its path, the file's size and time, and
+#: weak references to the cloud and segmentation it was written from (see
+#: :func:`written_labels`).  Weak: a result the caller has dropped is not kept alive.
+_LAST_WRITTEN: list[tuple[str, tuple[int, int], weakref.ref, weakref.ref]] = []
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    st = os.stat(path)
+    return st.st_size, st.st_mtime_ns
+
+
+def written_labels(path: str | Path) -> tuple[PointCloud, Segmentation] | None:
+    """The cloud and segmentation this process has just written to ``path``.
+
+    ``None`` unless ``path`` is the labelled cloud :func:`write_segmentation` wrote
+    last, the file is unchanged since (size and time) and the caller still holds
+    both objects.  The report of a run samples them from memory instead of
+    decompressing the file it has just written (2.5 s of CPU for 10 M points).
+    """
+    if not _LAST_WRITTEN:
+        return None
+    key, stamp, cloud_ref, seg_ref = _LAST_WRITTEN[0]
+    try:
+        if key != str(Path(path).resolve()) or stamp != _stamp(Path(path)):
+            return None
+    except OSError:
+        return None
+    cloud, seg = cloud_ref(), seg_ref()
+    return None if cloud is None or seg is None else (cloud, seg)
 
 
 def _safe_name(value: Any) -> str:
@@ -118,6 +156,8 @@ def write_segmentation(
     paths: dict[str, Path] = {
         "cloud": write_cloud(out_cloud, out / cloud_name, labels, notes=notes)
     }
+    written = paths["cloud"].resolve()
+    _LAST_WRITTEN[:] = [(str(written), _stamp(written), weakref.ref(cloud), weakref.ref(seg))]
     paths["objects"] = write_objects_table(seg.objects, out, cloud.crs)
     if per_object is not None and len(seg.objects):
         if per_object not in seg.objects.columns:

@@ -174,43 +174,64 @@ def sample_cloud(path: Path, max_points: int = 300_000, seed: int = 0) -> CloudS
     """Read a labelled cloud and keep at most ``max_points``, every object represented.
 
     Each object keeps at least ``min(its points, 300)`` points so that small
-    objects stay visible; the rest of the budget is spread evenly.
+    objects stay visible; the rest of the budget is spread evenly.  When this
+    process has just written ``path`` and still holds what it wrote
+    (:func:`pyheracles.io.results.written_labels`), the sample is taken from
+    memory; otherwise from the file.
     """
-    import laspy
-    from laspy import DecompressionSelection as Layers
+    from pyheracles.io.results import written_labels
 
-    # a LAS 1.4 LAZ is compressed in layers: only those of the coordinates, the class
-    # and the extra dimensions are decompressed (a fifth less time on 1 M points)
-    las = laspy.read(path, decompression_selection=Layers.base() | Layers.CLASSIFICATION
-                     | Layers.ALL_EXTRA_BYTES)  # fmt: skip
+    rng = np.random.default_rng(seed)
+    held = written_labels(path)
+    if held is not None:
+        from pyheracles.labels import ASPRS_GROUND, asprs_classification
+
+        cloud, seg = held
+        inst = np.asarray(seg.instance, np.int64)
+        idx = _sample_index(inst, max_points, rng)
+        xyz = cloud.xyz[idx] + cloud.offset
+        ground = asprs_classification(seg)[idx] == ASPRS_GROUND
+        crs_name = None if cloud.crs is None else cloud.crs.name
+        return _sample(xyz, inst[idx], ground, len(inst), crs_name)
+    import laspy
+
+    las = laspy.read(path)
     n = len(las.points)
     dims = set(las.point_format.dimension_names)
     inst = np.asarray(las["instance"], np.int64) if "instance" in dims else np.zeros(n, np.int64)
-    ground = np.asarray(las.classification) == 2
-    rng = np.random.default_rng(seed)
-    if n > max_points:
-        keep = rng.random(n) < max_points / n
-        ids = np.unique(inst)
-        small = ids[ids > 0]
-        if len(small):
-            order = np.argsort(inst, kind="stable")
-            starts = np.searchsorted(inst[order], small)
-            ends = np.searchsorted(inst[order], small, side="right")
-            for s, e in zip(starts, ends, strict=True):
-                take = order[s:e]
-                if keep[take].sum() < min(len(take), 300):
-                    keep[rng.choice(take, min(len(take), 300), replace=False)] = True
-        idx = np.flatnonzero(keep)
-    else:
-        idx = np.arange(n)
+    idx = _sample_index(inst, max_points, rng)
     xyz = np.column_stack([np.asarray(las.x)[idx], np.asarray(las.y)[idx], np.asarray(las.z)[idx]])
-    origin = np.floor(xyz.min(0)) if len(xyz) else np.zeros(3)
+    ground = np.asarray(las.classification)[idx] == 2
     crs = las.header.parse_crs()
-    return CloudSample(
-        (xyz - origin).astype(np.float32),
-        origin,
-        inst[idx],
-        ground[idx],
-        n,
-        None if crs is None else crs.name,
-    )
+    return _sample(xyz, inst[idx], ground, n, None if crs is None else crs.name)
+
+
+def _sample_index(inst: NDArray[np.int64], max_points: int, rng: np.random.Generator):
+    """Indices of at most about ``max_points`` points, each object keeping
+    ``min(its points, 300)`` (see :func:`sample_cloud`)."""
+    n = len(inst)
+    if n <= max_points:
+        return np.arange(n)
+    keep = rng.random(n) < max_points / n
+    ids = np.unique(inst)
+    small = ids[ids > 0]
+    if len(small):
+        order = np.argsort(inst, kind="stable")
+        starts = np.searchsorted(inst[order], small)
+        ends = np.searchsorted(inst[order], small, side="right")
+        for s, e in zip(starts, ends, strict=True):
+            take = order[s:e]
+            if keep[take].sum() < min(len(take), 300):
+                keep[rng.choice(take, min(len(take), 300), replace=False)] = True
+    return np.flatnonzero(keep)
+
+
+def _sample(
+    xyz: NDArray[np.float64],
+    inst: NDArray[np.int64],
+    ground: NDArray[np.bool_],
+    n_total: int,
+    crs: str | None,
+) -> CloudSample:
+    origin = np.floor(xyz.min(0)) if len(xyz) else np.zeros(3)
+    return CloudSample((xyz - origin).astype(np.float32), origin, inst, ground, n_total, crs)
