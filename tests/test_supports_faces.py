@@ -87,3 +87,39 @@ def test_draw_34_finds_the_pier_seen_from_its_long_sides() -> None:
     assert len(ids) and counts.max() > 0.5 * len(mine)
     row = found.objects.set_index("instance").loc[int(ids[np.argmax(counts)])]
     assert row["class"] == "pier"
+
+
+def _one_dense_face(wall_run_m: float, seed: int) -> np.ndarray:
+    """Section points of a 1.39 x 0.68 m pier centred at (0, 0.34): its face at y = 0
+    every 1 cm (running on ``wall_run_m`` beyond its right end), its other three faces
+    crossed by scan lines 6 cm apart (regrouped as a sparse pier island), 3 mm noise."""
+    rng = np.random.default_rng(seed)
+    x = np.arange(-0.695, 0.695 + wall_run_m + 1e-9, 0.01)
+    dense = np.c_[x, np.zeros(len(x))]
+    y = np.arange(0.08, 0.68 + 1e-9, 0.06)
+    xs = np.arange(-0.695, 0.695 + 1e-9, 0.06)
+    sparse = np.vstack(
+        [np.c_[np.full(len(y), -0.695), y], np.c_[np.full(len(y), 0.695), y],
+         np.c_[xs, np.full(len(xs), 0.68)]]
+    )  # fmt: skip
+    xy = np.vstack([dense, sparse])
+    return xy + rng.normal(0, 0.003, xy.shape)
+
+
+def test_pier_with_one_dense_face_is_one_pier() -> None:
+    """Draw 19 (an open kiosk, 1.39 x 0.68 m piers 15 m tall): the face seen square on
+    was a 1.39 x 0.07 m "wall", the other faces a sparse pier island beside it, which
+    that wall alongside made a piece of a wall; both missed.  A short straight wall on
+    the outline of a pier island, as long as its side, is its face."""
+    islands = section_islands(_one_dense_face(0.0, 19), PARAMS, 0.03)
+    piers = [i for i in islands if i.kind == "pier"]
+    assert len(piers) == 1, [(i.kind, i.size) for i in islands]
+    np.testing.assert_allclose(np.sort(piers[0].size), [0.68, 1.39], atol=0.03)
+    assert not [i for i in islands if i.kind == "wall"]
+
+
+def test_wall_running_past_a_pier_is_no_face() -> None:
+    """A wall running 0.8 m on past the side of a pier-like island is no face of it (the
+    wall's end and its return): it stays a wall."""
+    islands = section_islands(_one_dense_face(0.8, 19), PARAMS, 0.03)
+    assert [i for i in islands if i.kind == "wall"], [(i.kind, i.size) for i in islands]

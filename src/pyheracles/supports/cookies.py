@@ -163,7 +163,8 @@ def extract_support(
     piece.  A pier, carrying something or not, must be a prism as wide as its section
     (:func:`~pyheracles.supports.piers.narrow_share`: a lying drum is not, nor the tub
     of a pulpit on its post, which "carries" the ceiling above it).  Sets
-    ``sh["carries"]`` (whether a carried surface was found above it).
+    ``sh["carries"]`` (whether a carried surface was found above it) and
+    ``sh["carried_z"]`` (the underside of what it carries, inf if nothing).
 
     From the floor under it (off by the floor's own noise) up to the underside of what it
     carries (:func:`~pyheracles.supports.profile.carried_surface`; the points above the
@@ -242,7 +243,10 @@ def extract_support(
         )
         if sh["class"] == "pier" and (
             share > MAX_ATTACHED_SHARE
-            or wall_at_foot(p, pts, rho, sh, sc, h_sec, floor_z, height_band)
+            or any(
+                wall_at_foot(p, pts, rho, sh, sc, h_sec, foot, height_band)
+                for foot in foot_levels(cpts[:, 2], floor_z, ftol)
+            )
         ):  # joined to a wall in most layers, or the wall runs on from its foot: a wall
             # piece between openings (tall windows with low sills)
             sh["wall_edge"] = True
@@ -263,6 +267,7 @@ def extract_support(
     else:  # carries nothing: a broken column or one under the open sky
         need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
     sh["carries"] = bool(np.isfinite(top_z))
+    sh["carried_z"] = float(top_z)
     if height < need:
         return None  # a chair, a sign board, a fence post: not a support
     if (
@@ -272,6 +277,25 @@ def extract_support(
         # its post under a ceiling (draw 4: three tubs cut by the section were piers)
         return None
     return cidx, crho, cpts
+
+
+def foot_levels(z: Array, floor_z: float, ftol: float) -> tuple[float, ...]:
+    """Heights a support's foot may stand at: the floor under it and, when its own lowest
+    points ``z`` stand higher than :data:`~pyheracles.supports.piers.FOOT_FROM_M` above
+    that floor, just below them (metres).
+
+    The floor of a cookie is a low quantile of its ring (:func:`floor_level`): at the
+    edge of a podium the ring holds the ground outside, 0.5-1 m below the floor the
+    support stands on, and the foot band of :func:`wall_at_foot` then lay in the
+    podium's side (draw 15 of the supports family: the wall between two windows,
+    standing on the podium with the wall below the sills, was a pier).  The floor stays
+    a candidate: a jamb whose own lowest points were cut off above it stands in its
+    wall there.
+    """
+    if not len(z):
+        return (floor_z,)
+    own = float(z.min()) - ftol
+    return (floor_z, own) if own > floor_z + FOOT_FROM_M else (floor_z,)
 
 
 def local_spacing(pts: Array, sample: int = 2000) -> float:

@@ -133,6 +133,8 @@ def section_islands(
         labels = np.where(ringed & (labels == 0), -1, labels)
         out = rings_from_arcs(xy, labels, out, params, distance_m)
         out = sparse_islands(xy, labels, out, params, distance_m)
+        # last: the pier islands of sparse outlines have their dense faces as walls
+        out = face_and_outline(xy, out, params, distance_m)
     return out
 
 
@@ -256,6 +258,61 @@ def face_pairs(
     if not piers:
         return islands
     return [i for k, i in enumerate(islands) if k not in used] + piers
+
+
+def face_and_outline(
+    xy: Array, islands: list[Island], params: SupportParams, distance_m: float
+) -> list[Island]:
+    """Piers whose densest face is a wall island of its own.
+
+    A pier seen square on from one side has one dense straight face, longer than 1 m and
+    thin, hence a "wall", while its other faces, grazed or seen from afar, make a pier
+    island of their own beside it; that island then has a wall face alongside it and was
+    a piece of a wall (draw 19 of the supports family: two 1.39 x 0.68 m piers of an
+    open kiosk, their faces 1.39 x 0.07 m walls).  A straight wall island no longer than
+    ``max_support_size_m`` is the face of a pier island when it lies within three
+    clustering distances (at least 10 cm) of it, the pier island ends where the face
+    ends (within the same distance; the near face of a thick wall's end runs on past
+    its sparse end and far faces) and their points together make a pier whose outline
+    they lie on (:data:`SPARSE_RECT_RMS_M` plus 2 % of its length): one pier island.
+    The wall-piece tests of the supports
+    (:func:`~pyheracles.supports.detect.wall_pieces`) then judge it as any pier island
+    (a piece of a wall between openings has the wall's other pieces in line with it).
+    """
+    faces = {}
+    for k, isl in enumerate(islands):
+        if isl.kind == "wall" and float(np.max(isl.size)) <= params.max_support_size_m:
+            line = face_line(xy[isl.index])
+            if line is not None:
+                faces[k] = line
+    piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
+    if not faces or not piers:
+        return islands
+    tol = max(0.1, 3.0 * distance_m)
+    used: set[int] = set()
+    joined: list[Island] = []
+    for kp in piers:  # a few dozen piers at most
+        own = islands[kp]
+        tree = cKDTree(xy[own.index])
+        for kw, (c, u, ext, _) in faces.items():
+            if kw in used:
+                continue
+            d, _ = tree.query(xy[islands[kw].index], k=1, distance_upper_bound=tol)
+            if not np.isfinite(d).any():
+                continue  # not beside this pier
+            t = (xy[own.index] - c) @ u  # the pier island along the face
+            if abs(float(t.min()) - ext[0]) > tol or abs(float(t.max()) - ext[1]) > tol:
+                continue  # a wall running on past the pier island, not its face
+            idx = np.r_[own.index, islands[kw].index]
+            isl = classify_island(xy[idx], idx, params)
+            if isl.kind != "pier" or isl.rect_rms > SPARSE_RECT_RMS_M + 0.02 * float(isl.size[0]):
+                continue
+            used |= {kp, kw}
+            joined.append(isl)
+            break
+    if not joined:
+        return islands
+    return [i for k, i in enumerate(islands) if k not in used] + joined
 
 
 #: The points left over are grouped again at gaps doubling from twice the clustering
