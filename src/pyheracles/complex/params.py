@@ -122,6 +122,17 @@ class ComplexParams:
         the crown beside a shed.  Automatic: a quarter of the buffer.  On
         AHN3 tile 1 (buffer 1 m) any value from 0.15 to 0.3 m gives the same
         quality; half the buffer let hedges beside small sheds in.
+    crown_rise_m
+        A point of an object standing more than this above the median of its
+        8 nearest points of the object in XY (within the clustering distance),
+        where at least ``crown_share`` of the points around it (3D, within the
+        clustering distance) lie outside every polygon, untaken, at its height
+        or higher, is a tree crown's over the object: the crown runs on beyond
+        the footprint, a dormer or a chimney does not (see
+        :func:`pyheracles.complex.crowns.crown_points`).  Metres; ``None``
+        turns the test off.
+    crown_share
+        Least share of such points beside a raised point that makes it a crown's.
     ground
         One of ``auto``, ``csf``, ``smrf`` (see :mod:`pyheracles.ground`),
         ``class`` (keep ASPRS class 2 of the input) or ``none``.
@@ -160,6 +171,8 @@ class ComplexParams:
     scatter_vote_share: float = 0.5
     scatter_vote_keep: float = 0.8
     outside_above_top_m: float | None = 1.0
+    crown_rise_m: float | None = 1.0
+    crown_share: float = 0.2
     ground: str = "auto"
     raised_ground_m: float | None = 0.2
     layer_order: tuple[str, ...] | None = None
@@ -183,6 +196,8 @@ class ComplexParams:
             raise InputError(f"scatter_above_top_m must be >= 0, got {self.scatter_above_top_m}")
         if self.scatter_rise_m is not None and not self.scatter_rise_m >= 0:
             raise InputError(f"scatter_rise_m must be >= 0, got {self.scatter_rise_m}")
+        if self.crown_rise_m is not None and not self.crown_rise_m >= 0:
+            raise InputError(f"crown_rise_m must be >= 0, got {self.crown_rise_m}")
         if self.outside_above_top_m is not None and not self.outside_above_top_m >= 0:
             raise InputError(f"outside_above_top_m must be >= 0, got {self.outside_above_top_m}")
         if self.scatter_offset_m is not None and not self.scatter_offset_m >= 0:
@@ -195,7 +210,7 @@ class ComplexParams:
             raise InputError(
                 f"scatter_vote_neighbours must be >= 1, got {self.scatter_vote_neighbours}"
             )
-        for name in ("scatter_vote_share", "scatter_vote_keep"):
+        for name in ("scatter_vote_share", "scatter_vote_keep", "crown_share"):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise InputError(f"{name} must be in (0, 1], got {getattr(self, name)}")
         if not 0.0 <= self.keep_fraction <= 1.0:

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from pyheracles.cloud import PointCloud
 from pyheracles.complex.clusters import hull, object_points, porous_points, scattered_points
 from pyheracles.complex.cookie import GridIndex, claims, footprints_of, to_local
+from pyheracles.complex.crowns import crown_points
 from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
 from pyheracles.complex.params import ComplexParams, ComplexResult, resolve_params
 from pyheracles.errors import InputError
@@ -109,6 +110,8 @@ def _segment_layer(
     pts, poly, offpoly = pts[by_poly], poly[by_poly], offpoly[by_poly]
     bounds = np.searchsorted(poly, np.arange(len(geoms) + 1))
     levels = ground_level(geoms, xyz, site.ground, site.index, buffer + 5.0)
+    buffered = shapely.buffer(geoms, buffer)
+    shapely.prepare(buffered)
     porous = (
         porous_points(xyz[pts], site.pass_through[pts], rp.porous_share)
         if site.pass_through is not None and rp.porous_echoes
@@ -123,6 +126,8 @@ def _segment_layer(
             xyz, cand, cand_dist, scattered[sl], rp, None if porous is None else porous[sl],
             solid=None if site.pass_through is None else ~site.pass_through[cand],
         )
+        if rp.crown_rise_m is not None and keep.sum() >= 3:
+            keep[np.flatnonzero(keep)[_crowns(site, cand[keep], buffered[k], rp)]] = False
         if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
             empty.append(gdf["source_fid"].iloc[k])
             continue
@@ -152,6 +157,27 @@ def _segment_layer(
         )
         geometries.append(gdf.geometry.iloc[k])
     return empty
+
+
+def _crowns(
+    site: _Site, members: NDArray[np.int64], buffered: Any, rp: ComplexParams
+) -> NDArray[np.bool_]:
+    """Mask over ``members`` of a tree crown's points (see :func:`crown_points`).
+
+    The points beside them that count are untaken, outside every polygon and
+    beyond the object's buffer (``buffered``, prepared): its eaves and facades
+    lie within the buffer, and so do all its points.
+    """
+    radius = float(rp.cluster_distance_m)  # type: ignore[arg-type]
+    lo = site.xyz[members, :2].min(axis=0) - radius
+    hi = site.xyz[members, :2].max(axis=0) + radius
+    near = site.index.query_box(lo[0], lo[1], hi[0], hi[1])
+    off = near[site.pool[near] & ~site.inside_any[near]]
+    off = off[~shapely.contains_xy(buffered, site.xyz[off, 0], site.xyz[off, 1])]
+    return crown_points(
+        site.xyz, members, off, radius, float(rp.crown_rise_m),  # type: ignore[arg-type]
+        rp.crown_share,
+    )  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- main
