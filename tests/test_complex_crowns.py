@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyheracles.complex import ComplexParams
-from pyheracles.complex.crowns import crown_points
+from pyheracles.complex import ComplexParams, crowns
+from pyheracles.complex.crowns import CROWN_DEPTH_M, crown_pass, crown_points
 from test_complex_foliage import _run
 
 
@@ -47,8 +47,21 @@ def test_crown_over_a_roof_is_flagged_and_a_chimney_is_not() -> None:
     flag = crown_points(xyz, members, off, radius_m=4.5, rise_m=1.0, share=0.2)
     reach = truth & (xyz[members, 0] >= 10.0)  # within the radius of the crown beyond
     assert reach.sum() >= 3 and flag[reach].mean() >= 0.5
-    assert not flag[truth & ~reach].any()  # the reach is the radius (the clustering's)
+    # one pass: the radius (the clustering's) is more than a crown's depth
+    assert not flag[truth & ~reach].any()
     assert not flag[~truth].any()  # no roof point, no chimney point
+
+
+def test_a_crown_is_peeled_in_to_its_depth_on_a_denser_survey() -> None:
+    """With a radius under :data:`CROWN_DEPTH_M`, the crown's points found become the part
+    off the polygon of the next pass: the same scene at half the scale (radius 2.25 m)
+    gives more crown points than one pass, and still no roof or chimney point."""
+    xyz, members, off, truth = _roof_and_tree()
+    xyz = 0.5 * xyz
+    once = crown_pass(xyz, members, off, radius_m=2.25, rise_m=0.5, share=0.2)
+    flag = crown_points(xyz, members, off, radius_m=2.25, rise_m=0.5, share=0.2)
+    assert 2.25 < CROWN_DEPTH_M and (flag & truth).sum() > (once & truth).sum()
+    assert not flag[~truth].any()
 
 
 def test_nothing_off_the_polygon_no_crown() -> None:
@@ -70,3 +83,13 @@ def test_crowns_over_roofs_of_draw_21_stay_out() -> None:
     assert f1["building/B05"] >= 0.9 and f1["building/B23"] >= 0.9
     off_taken, off_f1 = _run(21, ComplexParams(crown_rise_m=None))
     assert off_taken > 60 and off_f1["building/B05"] < 0.9  # the rule is what keeps them out
+
+
+def test_crown_beside_a_wall_of_draw_3_is_peeled(monkeypatch) -> None:
+    """Draw 3 (4.2 points/m^2, clustering distance 1.4 m): a crown over wall W06 reaches
+    in farther than one pass (W06 F1 0.86); peeled to a crown's depth, 0.9 or more."""
+    _, f1 = _run(3)
+    assert f1["wall/W06"] >= 0.9
+    monkeypatch.setattr(crowns, "CROWN_DEPTH_M", 0.0)  # one pass
+    _, f1_once = _run(3)
+    assert f1_once["wall/W06"] < 0.9
