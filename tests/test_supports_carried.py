@@ -124,3 +124,37 @@ def test_wall_between_windows_on_a_podium_is_no_pier_on_draw_15() -> None:
         mine = ok & (found.instance == k)
         assert np.mean(res.class_id[mine] == wall_code) < 0.5, f"support {k} is a wall"
     assert len(found.objects) == 9
+
+
+def _tub_sides(centre, z: float, step: float) -> np.ndarray:
+    """The four sides of a pulpit's 1.2 x 1.0 m tub, 1.05 m high from ``z`` (its
+    underside, level with the scanners, unseen)."""
+    cx, cy = centre
+    out = []
+    for x in (cx - 0.6, cx + 0.6):
+        yz = _grid(cy - 0.5, cy + 0.5, z, z + 1.05, step)
+        out.append(np.c_[np.full(len(yz), x), yz])
+    for y in (cy - 0.5, cy + 0.5):
+        xz = _grid(cx - 0.6, cx + 0.6, z, z + 1.05, step)
+        out.append(np.c_[xz[:, 0], np.full(len(xz), y), xz[:, 1]])
+    return np.vstack(out)
+
+
+def test_pulpit_post_in_a_ruin_is_no_broken_column() -> None:
+    """Draw 26 (a roofless peristyle, columns 0.17 m in radius broken or standing at
+    3.2 m): a pulpit post 0.12 m in radius, its tub's underside unseen, carried nothing
+    and was a broken column.  A broken column's top is open; over the post stand the
+    tub's sides, round it in every sector.  The broken columns (2.0 m, one beside a
+    standing one) stay."""
+    step = 0.03
+    parts = [_horizontal(0.0, 9.0, 0.0, 6.0, 0.0, step)]
+    for x, top in ((1.5, 2.0), (3.5, 3.2), (3.9, 2.0), (5.5, 3.2), (7.5, 2.0)):
+        parts.append(_tube((x, 1.5), 0.17, 0.0, top, step))
+    parts += [_tube((4.5, 4.0), 0.12, 0.0, 1.6, step), _tub_sides((4.5, 4.0), 1.6, step)]
+    rng = np.random.default_rng(26)
+    xyz = np.vstack(parts)
+    xyz = xyz + rng.normal(0, 0.002, xyz.shape)
+    found = detect_supports(xyz, SupportParams(section_height_m=1.0))
+    assert list(found.objects["class"]) == ["column"] * 5, found.objects
+    post = np.hypot(xyz[:, 0] - 4.5, xyz[:, 1] - 4.0) < 0.3
+    assert not found.instance[post].any()

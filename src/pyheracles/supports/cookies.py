@@ -25,6 +25,7 @@ from pyheracles.supports.profile import (
     attached_share,
     band_reach,
     carried_surface,
+    overhead_cover,
     surface_tolerance,
     wall_beside,
 )
@@ -164,7 +165,8 @@ def extract_support(
     (:func:`~pyheracles.supports.piers.narrow_share`: a lying drum is not, nor the tub
     of a pulpit on its post, which "carries" the ceiling above it).  Sets
     ``sh["carries"]`` (whether a carried surface was found above it) and
-    ``sh["carried_z"]`` (the underside of what it carries, inf if nothing).
+    ``sh["carried_z"]`` (the underside of what it carries, inf if nothing) and, carrying
+    nothing, ``sh["overhead"]`` (:func:`~pyheracles.supports.profile.overhead_cover`).
 
     From the floor under it (off by the floor's own noise) up to the underside of what it
     carries (:func:`~pyheracles.supports.profile.carried_surface`; the points above the
@@ -268,6 +270,9 @@ def extract_support(
         need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
     sh["carries"] = bool(np.isfinite(top_z))
     sh["carried_z"] = float(top_z)
+    sh["overhead"] = (
+        0.0 if sh["carries"] else overhead_cover(z[ring], ang[ring], float(cpts[:, 2].max()))
+    )
     if height < need:
         return None  # a chair, a sign board, a fence post: not a support
     if (

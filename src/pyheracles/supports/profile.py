@@ -313,3 +313,25 @@ def wall_beside(
     if d > 0:  # the normal points from the face to the axis (the centre is the origin)
         n, d = -n, -d
     return n, d + float(n @ centre)
+
+
+#: Height above a support's top searched for something resting over it, metres.
+OVERHEAD_M = 0.5
+#: Angular sectors of the overhead search.
+OVERHEAD_SECTORS = 36
+
+
+def overhead_cover(z: Array, ang: Array, top: float) -> float:
+    """Share of the angular sectors round a support holding points of its cookie's ring
+    within :data:`OVERHEAD_M` above its top ``top`` (0..1); ``z``, ``ang``: heights and
+    angles round the section shape of the ring's points (beyond the buffer: a capital
+    or an abacus the support's own points did not keep is not in the ring).
+
+    A broken column's top is open; the post of a pulpit has its tub over it, whose
+    sides stand round the post in every sector (its underside, level with the
+    scanners, is not seen: the post carries nothing)."""
+    above = (z > top) & (z <= top + OVERHEAD_M)
+    if not above.any():
+        return 0.0
+    sec = np.floor((ang[above] + np.pi) / (2 * np.pi) * OVERHEAD_SECTORS).astype(np.int64)
+    return len(np.unique(sec % OVERHEAD_SECTORS)) / OVERHEAD_SECTORS
