@@ -57,13 +57,15 @@ def test_door_through_a_wall_with_returns_below_its_foot(n_ghosts: int) -> None:
     assert doors[0].height_m == pytest.approx(door[2], abs=0.05)
 
 
-def test_slim_runs_drops_runs_lower_than_an_opening() -> None:
+def test_slim_runs_drops_runs_at_the_foot_lower_than_an_opening() -> None:
     from pyheracles.walls.outlines import slim_runs
 
     h = np.zeros((4, 10), dtype=bool)
-    h[0, 2:4] = True  # 2 cells: dropped
+    h[0, 2:4] = True  # 2 cells from the foot: dropped
     h[1, 1:9] = True  # 8: kept
-    h[2, [0, 1, 2, 5, 6, 7, 8, 9]] = True  # 3 and 5: kept
-    out = slim_runs(h, 3)
-    assert not out[0].any() and out[1].sum() == 8 and out[2].sum() == 8 and not out[3].any()
-    assert slim_runs(h, 4)[2].sum() == 5
+    h[2, [0, 1, 2, 5, 6, 7, 8, 9]] = True  # 3 from the foot, 5: kept
+    h[3, 5:7] = True  # 2 cells above the foot: kept (within an opening)
+    foot = np.array([2, 1, 0, 0])
+    out = slim_runs(h, 3, foot)
+    assert not out[0].any() and out[1].sum() == 8 and out[2].sum() == 8 and out[3].sum() == 2
+    assert slim_runs(h, 4, foot)[2].sum() == 5

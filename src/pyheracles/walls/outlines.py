@@ -120,7 +120,7 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     top = ndimage.maximum_filter1d(top, max(1, round(0.3 / c)), mode="nearest")
     rows = np.arange(shape[1])[None, :]
     env = keep[:, None] & (rows >= bot[:, None]) & (rows <= top[:, None])
-    holes = slim_runs(env & ~occ, max(1, int(np.ceil(p.min_opening_m / c))))
+    holes = slim_runs(env & ~occ, max(1, int(np.ceil(p.min_opening_m / c))), bot)
     lab, k = ndimage.label(holes)
     openings: list[Opening] = []
     if k:
@@ -213,13 +213,13 @@ def floor_levels(uz: Array, front: NDArray[np.bool_], side: NDArray[np.int64], u
     return out
 
 
-def slim_runs(holes: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
+def slim_runs(holes: NDArray[np.bool_], n: int, foot: NDArray[np.int64]) -> NDArray[np.bool_]:
     """``holes`` (columns along ``u``, rows up ``z``) without the vertical runs of
-    fewer than ``n`` cells: slivers along the foot or the top of the envelope or
-    between two faces' edges, thinner than any opening, that would join openings to
-    one another or to the wall's end (an opening is at least ``n`` cells high in its
-    every column but the corners of a round or pointed head, trimmed by a cell or
-    two at most).
+    fewer than ``n`` cells that start at the envelope's ``foot`` (its row per column):
+    slivers along the foot, lower than any opening, that would join a door to the empty
+    cells along the foot beside it, up to the wall's end (a run within an opening,
+    between a transom and the stray cells across a light, is left: cut, it would split
+    the light).
     """
     if n <= 1 or not holes.any():
         return holes
@@ -227,12 +227,11 @@ def slim_runs(holes: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
     d = np.diff(h.astype(np.int8), axis=1)
     cols, starts = np.nonzero(d == 1)
     _, ends = np.nonzero(d == -1)  # same order: row-major, one end per start
-    long = ends - starts >= n
+    drop = (ends - starts < n) & (starts <= foot[cols] + 1)
     cum = np.zeros((holes.shape[0], holes.shape[1] + 1), dtype=np.int32)
-    np.add.at(cum, (cols[long], starts[long]), 1)
-    np.add.at(cum, (cols[long], ends[long]), -1)
-    keep = np.cumsum(cum, axis=1)[:, :-1] > 0
-    return holes & keep
+    np.add.at(cum, (cols[drop], starts[drop]), 1)
+    np.add.at(cum, (cols[drop], ends[drop]), -1)
+    return holes & ~(np.cumsum(cum, axis=1)[:, :-1] > 0)
 
 
 def _threshold(z0: float, feet: list[float], step: float) -> float:
