@@ -49,13 +49,17 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    per beam from its facets, lengthened over the short or sparse ends that
    gave no facet of their own (by the points on the faces seen along it, in
    rounds of ``max_gap_m``; not by normals, noisy where points are few);
+   pieces with one located section on one line are joined across a longer
+   gap too (``max_shadow_m``: a stretch in the shadow of a nearer member),
+   and boxes thinner than any member (``min_beam_width_m``) are dropped;
    groups of touching beams that all lie on a surface
    (timber stored on the floor) are dropped
    (:func:`~pyheracles.beams.surfaces.resting_loose`), and so are the beams
    that are no members of the frame (``BeamParams.frame_only``,
    :func:`~pyheracles.beams.frame.frame_members`: timber lying at the frame's
-   bottom joined to no rising member, a ladder leaning on a post, what no
-   frame holds): their points go to the remainder;
+   bottom joined to no rising member, a ladder leaning on a post, the strip
+   of a wall head a plate rests on, what no frame holds): their points go
+   to the remainder;
 5. every point within ``surface_tolerance_m`` of a cuboid surface is given to
    the nearest cuboid (the thesis's re-merge of pool points): labels, not
    copies, and nothing is lost (the remainder is label 0).

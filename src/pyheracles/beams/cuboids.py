@@ -22,8 +22,10 @@ __all__ = [
     "fit_one_face_cuboid",
     "join_pieces",
     "merge_and_absorb",
+    "same_section",
     "section_overlap",
     "sparse_face",
+    "thinner_than",
 ]
 
 
@@ -185,6 +187,18 @@ def fit_beam_cuboid(
         else:
             a_vals = pts @ d
         e_lo, e_hi = half_max_edges(a_vals, bin_m)
+        if across:
+            # the free points restore the edge strips, outwards; where many pile up
+            # along one edge (the corner with a face seen edge-on) the half-density
+            # level is theirs and both edges close in round that pile; and a face
+            # scanned at a grazing angle is denser near one edge, so that the
+            # half-density level of its far part is reached inside it: the faces'
+            # own points reach at least as far as their half-density edges and
+            # their 2 / 98 % quantiles (inside the edges of a uniform band)
+            own = np.concatenate([xyz[f.index] @ d for f in across])
+            own_lo, own_hi = half_max_edges(own, bin_m)
+            q_lo, q_hi = np.quantile(own, [0.02, 0.98])
+            e_lo, e_hi = min(e_lo, own_lo, float(q_lo)), max(e_hi, own_hi, float(q_hi))
         mid = 0.5 * (e_lo + e_hi)
         if not across and len(offsets) >= 2:
             mid = 0.5 * (offsets.min() + offsets.max())  # two opposite faces
@@ -245,7 +259,9 @@ def section_overlap(big: BeamCuboid, small: BeamCuboid) -> tuple[float, NDArray[
     return float(np.prod(inter) / max(np.prod(2 * half_small), 1e-12)), 2 * half_small
 
 
-def collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> bool:
+def collinear(
+    a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float, max_shadow: float = 0.0
+) -> bool:
     """Two cuboids that are pieces of one beam cut by an X joint or a shadow.
 
     Parallel, separated along the axis by at most ``max_gap``, and either with
@@ -254,13 +270,16 @@ def collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> b
     sizes equal to the larger one's: a piece seen on too few faces (a side
     shadowed by a crossing beam) has one side located by the edge of a partly
     seen face, so one size comes out short; the refit of the merged beam takes
-    that side from the other piece's face.
+    that side from the other piece's face.  Farther apart, up to
+    ``max_shadow`` and no more than the longer piece's length (a stretch of a
+    member in the shadow of one nearer the scanner), only pieces with one
+    located section (:func:`same_section`) are.
     """
     if abs(a.axis @ b.axis) < cos_par:
         return False
     gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
     if gap > max_gap:
-        return False
+        return bool(gap <= min(max_shadow, max(a.length, b.length)) and same_section(a, b))
     same = True
     for x, y in ((a, b), (b, a)):
         d = y.centre - x.centre
@@ -278,8 +297,46 @@ def collinear(a: BeamCuboid, b: BeamCuboid, cos_par: float, max_gap: float) -> b
     return bool(inside >= 0.8 and one_equal)
 
 
+def same_section(a: BeamCuboid, b: BeamCuboid) -> bool:
+    """Two cuboids with one section on one line: pieces of a member apart by a shadow.
+
+    Both sections located (each cuboid seen on at least two faces), their
+    sizes within 10 % or 1 cm of each other, and each centre within a quarter
+    of the other's section of its axis line.  Two members on one line with
+    the same section to the centimetre are rare; a member whose middle lies
+    in the shadow of a nearer one is not.
+    """
+    if min(a.faces_seen, b.faces_seen) < 2 or not (a.height_measured and b.height_measured):
+        return False
+    dims_a = np.sort([a.width, a.height])
+    dims_b = np.sort([b.width, b.height])
+    if np.any(np.abs(dims_a - dims_b) > np.maximum(0.1 * np.maximum(dims_a, dims_b), 0.01)):
+        return False
+    for x, y in ((a, b), (b, a)):
+        d = y.centre - x.centre
+        if abs(d @ x.axes[:, 1]) > 0.25 * x.width or abs(d @ x.axes[:, 2]) > 0.25 * x.height:
+            return False
+    return True
+
+
+def thinner_than(cub: BeamCuboid, min_width: float) -> bool:
+    """Whether a cuboid's located section is narrower than any beam (``min_width``, metres).
+
+    Facets grouped across a beam's edge with a coplanar strip of something
+    else, or a sliver of a face with the edge strip of another, can make a
+    box a centimetre or two thick; no member of a frame is, so it is no beam.
+    Only a section located by faces on two sides is judged so: the depth
+    behind a beam seen on one face, read from a few side points or not
+    measured, may come out that thin for a true member, which is judged by
+    the size across its face only.
+    """
+    sizes = [cub.width, cub.height]
+    size = min(sizes) if cub.faces_seen >= 2 and cub.height_measured else max(sizes)
+    return bool(size < min_width)
+
+
 def join_pieces(
-    beams: list[BeamCuboid], cos_par: float, max_gap: float
+    beams: list[BeamCuboid], cos_par: float, max_gap: float, max_shadow: float = 0.0
 ) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
     """Join the cuboids that are pieces of one beam along their common axis.
 
@@ -288,7 +345,8 @@ def join_pieces(
     piece's ends are only known once it has been lengthened over the faces
     seen past them: two pieces 2 m apart as fitted may come out 0.4 m apart.
     Cuboids that are :func:`collinear` (parallel, the same section on one
-    line, at most ``max_gap`` apart) are joined, repeatedly: the joined
+    line, at most ``max_gap`` apart, or up to ``max_shadow`` with one located
+    section) are joined, repeatedly: the joined
     cuboid keeps the section and axis of the piece seen on more faces (then
     the longer one) and spans both pieces along that axis.
 
@@ -316,7 +374,7 @@ def join_pieces(
         near &= np.abs(axes @ axes.T) >= cos_par
         for i, j in zip(*np.nonzero(np.triu(near, 1)), strict=True):
             i, j = int(i), int(j)
-            if not collinear(out[i], out[j], cos_par, max_gap):
+            if not collinear(out[i], out[j], cos_par, max_gap, max_shadow):
                 continue
             a, b = out[i], out[j]
             key = lambda c: (c.faces_seen, c.height_measured, c.length)  # noqa: E731

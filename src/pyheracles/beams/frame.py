@@ -15,7 +15,9 @@
    joint, wholly below the frame's bottom: timber on the floor), and so is a
    horizontal timber at the frame's bottom joined to no inclined or vertical
    beam and shorter than most of the frame along it (:func:`loose`: timber
-   stored on the floor next to a tie beam);
+   stored on the floor next to a tie beam), and so is the strip of a wall
+   head a plate rests on (:func:`bearing`: its top level with the underside
+   of a parallel beam laid along it);
 3. a role per beam from orientation, height, place and joints
    (:func:`~pyheracles.beams.roles.guess_roles`);
 4. per beam its deflection and twist from its own points
@@ -40,7 +42,15 @@ from pyheracles.beams.model import BeamCuboid, BeamResult
 from pyheracles.beams.roles import RoleParams, frame_levels, guess_roles
 from pyheracles.errors import InputError
 
-__all__ = ["FrameParams", "FrameResult", "analyse_frame", "frame_members", "leaning", "loose"]
+__all__ = [
+    "FrameParams",
+    "FrameResult",
+    "analyse_frame",
+    "bearing",
+    "frame_members",
+    "leaning",
+    "loose",
+]
 
 
 @dataclass(frozen=True)
@@ -294,6 +304,60 @@ def loose(
     return out
 
 
+def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
+    """Boxes that are the bearing of a horizontal beam lying on them: masonry, not timber.
+
+    A wall plate rests on the head of a wall, inset from the room's side: the
+    strip of the wall head between the plate and the room, with the wall's
+    face under it, is a straight horizontal band on a convex edge, as long
+    as the plate, and comes out as a beam.  What gives it away is the plate:
+    the box's top is level (within ``joints.contact_m``) with the underside
+    of a parallel horizontal beam beside it or on it (their sides within
+    ``joints.contact_m``) along at least half of the shorter one, i.e. the
+    surface the plate rests on goes on under the plate.  A timber lying
+    beside a plate has its top above the plate's underside (or the plate
+    would float); a member carrying another is crossed by it, not laid along it.
+    """
+    n = len(beams)
+    out = np.zeros(n, bool)
+    flat = [
+        i
+        for i, b in enumerate(beams)
+        if math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))) <= p.roles.horizontal_deg
+    ]
+    cos_par = math.cos(math.radians(p.roles.horizontal_deg))
+    contact = p.joints.contact_m
+    for i in flat:
+        low = beams[i]
+        top = float(low.centre[2]) + _half_height(low)
+        for k in flat:
+            up = beams[k]
+            if k == i or abs(float(up.axis @ low.axis)) < cos_par:
+                continue
+            if abs(float(up.centre[2]) - _half_height(up) - top) > contact:
+                continue
+            d = up.centre - low.centre
+            lat = d - (d @ low.axis) * low.axis
+            lat[2] = 0.0
+            dist = float(np.linalg.norm(lat))
+            if dist > 1e-9:
+                u = lat / dist
+                reach = sum(
+                    0.5 * float(np.abs(b.axes[:, 1:].T @ u) @ [b.width, b.height])
+                    for b in (low, up)
+                )
+                if dist - reach > contact:
+                    continue
+            t = float(d @ low.axis)
+            overlap = min(t + 0.5 * up.length, 0.5 * low.length) - max(
+                t - 0.5 * up.length, -0.5 * low.length
+            )
+            if overlap >= 0.5 * min(up.length, low.length):
+                out[i] = True
+                break
+    return out
+
+
 def frame_members(
     beams: list[BeamCuboid], joints: list[Joint], p: FrameParams
 ) -> tuple[NDArray[np.int32], NDArray[np.bool_]]:
@@ -330,6 +394,7 @@ def frame_members(
                 spans = b.length >= p.span_share * float(np.ptp(corners @ b.axis))
                 in_frame[ids] &= flat and spans
         in_frame &= ~loose(beams, joints, in_frame, p)
+    in_frame &= ~bearing(beams, p)
     return comp, in_frame
 
 

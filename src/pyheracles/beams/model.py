@@ -53,6 +53,12 @@ class BeamParams:
     max_gap_m
         Largest gap along the axis between two pieces of one beam face (cut by a
         crossing beam in an X joint, or by an occlusion shadow), metres.
+    max_shadow_m
+        Largest gap along the axis between two pieces of one beam that share
+        one located section (each seen on at least two faces, sizes within
+        10 % or 1 cm, on one line; no farther apart than the longer piece is
+        long), metres: a stretch of a member in the shadow of a member nearer
+        the scanner (:func:`~pyheracles.beams.cuboids.same_section`).
     min_contact_fraction
         Two facets of a beam touch along at least this fraction of the shorter one.
     surface_tolerance_m
@@ -96,6 +102,7 @@ class BeamParams:
     parallel_deg: float = 5.0
     contact_m: float | None = None
     max_gap_m: float = 1.0
+    max_shadow_m: float = 3.0
     min_contact_fraction: float = 0.4
     surface_tolerance_m: float | None = None
     thin_spacing_m: float | None = 0.008
@@ -117,6 +124,8 @@ class BeamParams:
             raise InputError(f"min_facet_points must be >= 10, got {self.min_facet_points}")
         if not 0 < self.parallel_deg < 45:
             raise InputError(f"parallel_deg must be in (0, 45), got {self.parallel_deg}")
+        if self.max_shadow_m < 0:
+            raise InputError(f"max_shadow_m must be >= 0 metres, got {self.max_shadow_m}")
         if not 0 < self.min_contact_fraction <= 1:
             raise InputError(
                 f"min_contact_fraction must be in (0, 1], got {self.min_contact_fraction}"

@@ -16,6 +16,7 @@ from pyheracles.beams.cuboids import (
     fit_one_face_cuboid,
     join_pieces,
     merge_and_absorb,
+    thinner_than,
 )
 from pyheracles.beams.deflection import BoxIndex
 from pyheracles.beams.facets import (
@@ -42,6 +43,7 @@ __all__ = [
     "covered",
     "extend_along_axis",
     "extend_once",
+    "keep_beams",
     "scatter",
     "segment_beams",
 ]
@@ -313,6 +315,16 @@ def add_one_face_beams(
     return out, fb
 
 
+def keep_beams(
+    cuboids: list[BeamCuboid], facet_beam: NDArray[np.int32], keep: NDArray[np.bool_]
+) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
+    """The cuboids where ``keep``, and each facet's beam renumbered (0: a dropped beam's)."""
+    if keep.all():
+        return cuboids, facet_beam
+    renumber = np.concatenate([[0], np.cumsum(keep) * keep]).astype(np.int32)
+    return [c for c, k in zip(cuboids, keep, strict=True) if k], renumber[facet_beam]
+
+
 def scatter(values: NDArray, index: NDArray[np.int64], n: int) -> NDArray:
     """``values`` of a subset (``index``) spread over ``n`` points, zeros elsewhere."""
     out = np.zeros((n, *values.shape[1:]), dtype=values.dtype)
@@ -503,24 +515,24 @@ def segment_beams(
         )
         for i, c in enumerate(cuboids)
     ]
-    # pieces of one member whose lengthened ends now meet
-    cuboids, new_id = join_pieces(cuboids, np.cos(np.radians(p.parallel_deg)), p.max_gap_m)
+    # pieces of one member whose lengthened ends now meet, or lie apart by a shadow
+    cuboids, new_id = join_pieces(
+        cuboids, np.cos(np.radians(p.parallel_deg)), p.max_gap_m, p.max_shadow_m
+    )
     facet_beam = new_id[facet_beam]
+    # boxes thinner than any member: facets of a beam grouped with a strip of something else
+    thin = np.array([thinner_than(c, p.min_beam_width_m) for c in cuboids], dtype=bool)
+    cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~thin)
     # timber stored on the floor: it and what it touches lie on a surface going on around
     contacts = cuboid_contacts(cuboids, max(contact, 2.0 * tol))
     loose = resting_loose(tree, cuboids, contacts)
-    if loose.any():
-        renumber = np.concatenate([[0], np.cumsum(~loose) * ~loose]).astype(np.int32)
-        facet_beam = renumber[facet_beam]
-        cuboids = [c for c, lo in zip(cuboids, loose, strict=True) if not lo]
+    cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~loose)
     if p.frame_only and len(cuboids) >= 2:
         # loose timber, a ladder, what no frame holds: not members (to the remainder)
         fp = FrameParams()
         _, member = frame_members(cuboids, find_joints(cuboids, fp.joints), fp)
-        if member.any() and not member.all():
-            renumber = np.concatenate([[0], np.cumsum(member) * member]).astype(np.int32)
-            facet_beam = renumber[facet_beam]
-            cuboids = [c for c, m in zip(cuboids, member, strict=True) if m]
+        if member.any():
+            cuboids, facet_beam = keep_beams(cuboids, facet_beam, member)
     labels = assign_to_cuboids(full, cuboids, tol, index if full is arr else None)
     timings["cuboids"] = time.perf_counter() - t3
     straight = np.zeros(len(arr), dtype=np.int32)
