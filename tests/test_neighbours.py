@@ -220,3 +220,23 @@ def test_octree_knn_table_equals_the_kd_tree_query() -> None:
     d1, i1 = octree_knn(dup, 16)
     assert np.array_equal(d0, d1)
     assert np.array_equal(np.sort(dup[i0], axis=1), np.sort(dup[i1], axis=1))
+
+
+def test_octree_search_stays_fast_where_sparse_cells_border_dense_ones() -> None:
+    """Roof draw 1 (issue 13): the first 50 k points of its scan took 2.9 s (the whole
+    region-growing input: minutes) because twelve halvings of the distance threshold
+    left hundreds of candidates, dropped one maximum at a time.  The search is exact
+    and takes a fraction of a second."""
+    import time
+
+    from pyheracles.geometry.neighbours import octree_knn
+    from pyheracles.synthetic.families import simulate
+
+    xyz = simulate("roof", 1).clouds["cloud"].xyz[:50_000]
+    octree_knn(xyz[:2000], 24)  # compiled
+    start = time.perf_counter()
+    dist, idx = octree_knn(xyz, 24)
+    assert time.perf_counter() - start < 1.5
+    d0, i0 = knn(xyz, 24)
+    assert np.array_equal(dist, d0)
+    assert np.array_equal(np.sort(i0, axis=1), np.sort(idx, axis=1))
