@@ -240,9 +240,13 @@ def leaning(
 ) -> NDArray[np.bool_]:
     """Beams that lean on the frame, or lie below it touching it, rather than belong to it.
 
-    One joint only, not plumb, and either its upper half on the frame with its foot
-    ``leaning_below_m`` below the frame's bottom (a ladder), or wholly lower than one
-    section under the frame's bottom (a timber on the floor against a post's foot).
+    Not plumb, and either every joint in its upper half with its foot
+    ``leaning_below_m`` below the frame's bottom (a ladder against a post, its
+    side touching a strut or a rafter it passes as well: roof seed 16), or one
+    joint only and wholly lower than one section under the frame's bottom (a
+    timber on the floor against a post's foot).  A member of the frame is
+    joined at its foot: a rafter to the plate or tie, a strut or a brace to
+    the tie or post it springs from.
     """
     out = np.zeros(len(beams), bool)
     if not in_frame.any():
@@ -250,11 +254,10 @@ def leaning(
     for i, b in enumerate(beams):
         mine = [jt for jt in joints if i + 1 in jt.members]
         plumb = np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) >= p.plumb_deg
-        if not in_frame[i] or len(mine) != 1 or plumb:  # posts stand plumb, ladders lean
+        if not in_frame[i] or not mine or plumb:  # posts stand plumb, ladders lean
             continue
-        jt = mine[0]
-        at = jt.at[jt.members.index(i + 1)]
         low_end = 0.0 if b.axis[2] >= 0 else 1.0  # parameter of the lower end
+        upper = all(abs(jt.at[jt.members.index(i + 1)] - low_end) > 0.5 for jt in mine)
         lowest = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
         rest = in_frame.copy()
         rest[i] = False  # the frame's bottom without this beam
@@ -262,8 +265,9 @@ def leaning(
             continue
         bottom, _ = frame_levels(beams, rest, p.roles)
         top = float(b.centre[2]) + _half_height(b)
-        leans = abs(at - low_end) > 0.5 and lowest < bottom - p.leaning_below_m
-        lies = top < bottom - max(b.width, b.height)  # on the floor, touching the frame
+        leans = upper and lowest < bottom - p.leaning_below_m
+        # on the floor, touching the frame
+        lies = len(mine) == 1 and top < bottom - max(b.width, b.height)
         out[i] = leans or lies
     return out
 
