@@ -47,3 +47,32 @@ def peak_rss_gb() -> float:
     """Peak resident memory of this process so far, GB."""
     kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return kb / 1e6 if sys.platform != "darwin" else kb / 1e9
+
+
+def run_cli(args: list[str]) -> dict[str, float]:
+    """Run ``heracles ARGS`` in a fresh process, as a user would: its wall-clock and CPU
+    seconds, its own peak resident memory (GB) and its exit code.
+
+    Wall time includes the interpreter's start, the imports, reading and writing.
+    """
+    import os
+    import subprocess
+
+    start = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pyheracles", *args],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - start
+    stderr = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    scale = 1e6 if sys.platform != "darwin" else 1e9
+    return {
+        "wall_s": wall,
+        "cpu_s": usage.ru_utime + usage.ru_stime,
+        "peak_rss_gb": usage.ru_maxrss / scale,
+        "exit_code": proc.returncode,
+        "stderr_tail": stderr[-500:],
+    }
