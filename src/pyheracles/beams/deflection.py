@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.beams.model import BeamCuboid
+from pyheracles.beams.model import BeamCuboid, box_distance
 from pyheracles.errors import InputError
 
 __all__ = [
@@ -620,27 +620,11 @@ def near_beams(
     for j, cub in enumerate(beams):
         found = index.query(*search_box(cub, params))
         loc = _local(cub, xyz[found])
-        hit = found[_signed_distance_local(loc, cub.half_extents) <= params.surface_tol_m]
+        hit = found[box_distance(loc, cub.half_extents) <= params.surface_tol_m]
         count[hit] += 1
         which[hit] = j
         boxes.append((found, loc))
     return boxes, count, which
-
-
-def _signed_distance_local(loc: Array, half: Array) -> Array:
-    """:meth:`BeamCuboid.signed_distance` of points given in the beam's frame (the
-    same operations, so the same numbers)."""
-    q = np.abs(loc) - half
-    q0, q1, q2 = q[:, 0], q[:, 1], q[:, 2]
-    inside = np.maximum(np.maximum(q0, q1), q2)
-    np.minimum(inside, 0.0, out=inside)
-    np.maximum(q, 0.0, out=q)
-    q *= q
-    dist = q0 + q1
-    dist += q2
-    np.sqrt(dist, out=dist)
-    dist += inside
-    return dist
 
 
 class BoxIndex:

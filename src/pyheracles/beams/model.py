@@ -13,7 +13,15 @@ from pyheracles.errors import InputError
 from pyheracles.labels import Segmentation
 from pyheracles.segment.regiongrow import RegionGrowingParams
 
-__all__ = ["BEAM_CLASS", "BEAM_CLASS_ID", "BeamCuboid", "BeamParams", "BeamResult", "StraightFacet"]
+__all__ = [
+    "BEAM_CLASS",
+    "BEAM_CLASS_ID",
+    "BeamCuboid",
+    "BeamParams",
+    "BeamResult",
+    "StraightFacet",
+    "box_distance",
+]
 
 BEAM_CLASS = "beam"
 BEAM_CLASS_ID = 1
@@ -168,6 +176,28 @@ class StraightFacet:
     parent: int
 
 
+def box_distance(
+    local: NDArray[np.float64], half: NDArray[np.float64], *, overwrite: bool = False
+) -> NDArray[np.float64]:
+    """Signed distance (negative inside) of points given in a box's own frame to the
+    box of half extents ``half``: ``|max(q, 0)| + min(max_k q_k, 0)``, ``q = |local| -
+    half``, column by column (a reduction over rows of three values is slow in numpy),
+    the squares summed in the order ``np.linalg.norm`` uses (the same numbers to the
+    last bit).  ``overwrite``: ``local`` may be used as scratch."""
+    q = np.abs(local, out=local) if overwrite else np.abs(local)
+    q -= half
+    q0, q1, q2 = q[:, 0], q[:, 1], q[:, 2]
+    inside = np.maximum(np.maximum(q0, q1), q2)
+    np.minimum(inside, 0.0, out=inside)
+    np.maximum(q, 0.0, out=q)
+    q *= q
+    dist = q0 + q1
+    dist += q2
+    np.sqrt(dist, out=dist)
+    dist += inside
+    return dist
+
+
 @dataclass(frozen=True)
 class BeamCuboid:
     """Oriented cuboid of one beam.
@@ -222,18 +252,7 @@ class BeamCuboid:
         ``np.linalg.norm`` uses, so the values are the same to the last bit.
         """
         local = (np.asarray(points, dtype=np.float64) - self.centre) @ self.axes
-        q = np.abs(local, out=local)
-        q -= self.half_extents
-        q0, q1, q2 = q[:, 0], q[:, 1], q[:, 2]
-        inside = np.maximum(np.maximum(q0, q1), q2)
-        np.minimum(inside, 0.0, out=inside)
-        np.maximum(q, 0.0, out=q)
-        q *= q
-        dist = q0 + q1
-        dist += q2
-        np.sqrt(dist, out=dist)
-        dist += inside
-        return dist
+        return box_distance(local, self.half_extents, overwrite=True)
 
     def corners(self) -> NDArray[np.float64]:
         """``(8, 3)`` corners (for drawing)."""

@@ -189,6 +189,20 @@ def ends_on_wall_lines(
     return False
 
 
+def short_wall_faces(
+    islands: list[Island], xy: Array, params: SupportParams
+) -> dict[int, tuple[Array, Array, Array, float]]:
+    """The straight faces (:func:`face_line`) of the wall islands no longer than
+    ``max_support_size_m``, by island: what may be a face of a pier."""
+    faces = {}
+    for k, isl in enumerate(islands):
+        if isl.kind == "wall" and float(np.max(isl.size)) <= params.max_support_size_m:
+            line = face_line(xy[isl.index])
+            if line is not None:
+                faces[k] = line
+    return faces
+
+
 def face_pairs(
     xy: Array, islands: list[Island], params: SupportParams, distance_m: float
 ) -> list[Island]:
@@ -207,12 +221,7 @@ def face_pairs(
     (:func:`~pyheracles.supports.detect.wall_pieces`) handle them as any pier-like
     island.
     """
-    faces = {}
-    for k, isl in enumerate(islands):
-        if isl.kind == "wall" and float(np.max(isl.size)) <= params.max_support_size_m:
-            line = face_line(xy[isl.index])
-            if line is not None:
-                faces[k] = line
+    faces = short_wall_faces(islands, xy, params)
     if len(faces) < 2:
         return islands
     tol = max(0.1, 3.0 * distance_m)
@@ -279,12 +288,7 @@ def face_and_outline(
     (:func:`~pyheracles.supports.detect.wall_pieces`) then judge it as any pier island
     (a piece of a wall between openings has the wall's other pieces in line with it).
     """
-    faces = {}
-    for k, isl in enumerate(islands):
-        if isl.kind == "wall" and float(np.max(isl.size)) <= params.max_support_size_m:
-            line = face_line(xy[isl.index])
-            if line is not None:
-                faces[k] = line
+    faces = short_wall_faces(islands, xy, params)
     piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
     if not faces or not piers:
         return islands
