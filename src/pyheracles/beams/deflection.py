@@ -387,7 +387,7 @@ def member_shape(
     others: Sequence[BeamCuboid] = (),
     index: BoxIndex | None = None,
     blocked: NDArray[np.bool_] | None = None,
-    box: tuple[NDArray[np.int64], Array] | None = None,
+    box: NDArray[np.int64] | None = None,
 ) -> MemberShape:
     """Deflection and twist of one beam from its points.
 
@@ -413,8 +413,8 @@ def member_shape(
         ``(N,)`` points within ``surface_tol_m`` of another beam's cuboid, found
         once for all beams (:func:`near_beams`); replaces ``others``.
     box
-        The points of the beam's search box and their local coordinates, from
-        :func:`near_beams`; replaces ``index``.
+        The points of the beam's search box (sorted indices, from :func:`near_beams`);
+        replaces ``index``.
 
     Returns
     -------
@@ -432,11 +432,8 @@ def member_shape(
         return _empty(0, "no points")
     # candidates of the later passes: near the straight cuboid, not another beam's
     lo, hi = search_box(cub, p)
-    if box is None:
-        found = (index or BoxIndex(xyz)).query(lo, hi)
-        found_loc = _local(cub, xyz[found])
-    else:
-        found, found_loc = box
+    found = (index or BoxIndex(xyz)).query(lo, hi) if box is None else box
+    found_loc = _local(cub, xyz[found])
     use = np.ones(len(found), dtype=bool)
     if other is not None:
         use &= ~other[found] | own[found]
@@ -602,17 +599,18 @@ def search_box(cub: BeamCuboid, params: ShapeParams) -> tuple[Array, Array]:
 
 def near_beams(
     xyz: Array, beams: Sequence[BeamCuboid], params: ShapeParams, index: BoxIndex
-) -> tuple[list[tuple[NDArray[np.int64], Array]], NDArray[np.int32], NDArray[np.int32]]:
+) -> tuple[list[NDArray[np.int64]], NDArray[np.int32], NDArray[np.int32]]:
     """Each beam's search box, and how many cuboids each point is near.
 
-    Returns the points of each beam's :func:`search_box` with their coordinates
-    in the beam's frame (axis, width, height), then ``count`` and ``which``, both
+    Returns the points of each beam's :func:`search_box` (sorted indices), then
+    ``count`` and ``which``, both
     ``(N,)``: how many cuboids a point lies inside or within ``surface_tol_m`` of
     (the search box holds every such point) and the last of them (0-based, -1
     for none).  A point is near another beam than ``i`` when ``count >= 2``, or
     ``count == 1`` and ``which != i``.  Found once per beam, not once per pair of
-    beams (a rafter's box holds half of a roof), and the coordinates serve
-    :func:`member_shape` too.
+    beams (a rafter's box holds half of a roof), and the boxes serve
+    :func:`member_shape` too (their coordinates are not kept: a hundred beams'
+    boxes over 10 M points would hold gigabytes).
     """
     count = np.zeros(len(xyz), dtype=np.int32)
     which = np.full(len(xyz), -1, dtype=np.int32)
@@ -623,7 +621,7 @@ def near_beams(
         hit = found[box_distance(loc, cub.half_extents) <= params.surface_tol_m]
         count[hit] += 1
         which[hit] = j
-        boxes.append((found, loc))
+        boxes.append(found)
     return boxes, count, which
 
 
