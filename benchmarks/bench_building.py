@@ -101,7 +101,9 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--spacing", type=float, default=0.03, help="surface spacing, m")
     ap.add_argument("--repeats", type=int, default=3, help="runs of the 3.5 M point timing")
-    ap.add_argument("--speed-only", action="store_true", help="only the 3.5 M and 10 M point timings")
+    ap.add_argument(
+        "--speed-only", action="store_true", help="only the 3.5 M and 10 M point timings"
+    )
     ap.add_argument(
         "--sweep",
         type=int,
