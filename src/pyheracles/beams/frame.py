@@ -170,9 +170,7 @@ class FrameResult:
                     "length_m": round(b.length, 4),
                     "width_m": round(b.width, 4),
                     "height_m": round(b.height, 4),
-                    "inclination_deg": round(
-                        math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))), 2
-                    ),
+                    "inclination_deg": round(b.inclination_deg, 2),
                     "n_points": int(counts[i + 1]),
                     "deflection_mm": _mm(s.deflection_m),
                     "deflection_direction": [round(float(v), 4) for v in s.direction],
@@ -253,7 +251,7 @@ def leaning(
         return out
     for i, b in enumerate(beams):
         mine = [jt for jt in joints if i + 1 in jt.members]
-        plumb = np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) >= p.plumb_deg
+        plumb = b.inclination_deg >= p.plumb_deg
         if not in_frame[i] or not mine or plumb:  # posts stand plumb, ladders lean
             continue
         low_end = 0.0 if b.axis[2] >= 0 else 1.0  # parameter of the lower end
@@ -283,7 +281,7 @@ def loose(
     the frame's other beams along its axis.
     """
     out = np.zeros(len(beams), bool)
-    incl = np.array([np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) for b in beams])
+    incl = np.array([b.inclination_deg for b in beams])
     flat = in_frame & (incl <= p.roles.horizontal_deg)
     if in_frame.sum() < 2 or not flat.any():
         return out
@@ -324,11 +322,7 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     """
     n = len(beams)
     out = np.zeros(n, bool)
-    flat = [
-        i
-        for i, b in enumerate(beams)
-        if math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))) <= p.roles.horizontal_deg
-    ]
+    flat = [i for i, b in enumerate(beams) if b.inclination_deg <= p.roles.horizontal_deg]
     cos_par = math.cos(math.radians(p.roles.horizontal_deg))
     contact = p.joints.contact_m
     for i in flat:
@@ -392,9 +386,7 @@ def frame_members(
                 # joined to nothing: only a beam spanning the frame (a tie from wall to
                 # wall, its joints hidden in the masonry), not a chimney or a stray piece
                 b = beams[ids[0]]
-                flat = math.degrees(math.asin(min(1.0, abs(float(b.axis[2]))))) <= (
-                    p.roles.horizontal_deg
-                )
+                flat = b.inclination_deg <= p.roles.horizontal_deg
                 spans = b.length >= p.span_share * float(np.ptp(corners @ b.axis))
                 in_frame[ids] &= flat and spans
         in_frame &= ~loose(beams, joints, in_frame, p)

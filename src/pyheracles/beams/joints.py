@@ -183,16 +183,12 @@ def _ends(c: BeamCuboid) -> tuple[Array, Array]:
     return c.centre - h, c.centre + h
 
 
-def _inclination(c: BeamCuboid) -> float:
-    return float(np.degrees(np.arcsin(min(1.0, abs(float(c.axis[2]))))))
-
-
 def _joint_type(
     a: BeamCuboid, s: float, b: BeamCuboid, t: float, stacked: bool, p: JointParams
 ) -> str:
     for m, u, o in ((a, s, b), (b, t, a)):
-        if p.inclined_deg <= _inclination(m) < p.vertical_deg and (
-            _inclination(o) <= p.horizontal_deg
+        if p.inclined_deg <= m.inclination_deg < p.vertical_deg and (
+            o.inclination_deg <= p.horizontal_deg
         ):
             lower = u if m.axis[2] >= 0 else 1.0 - u  # 0 at the lower end
             above = float((m.centre - o.centre) @ np.array([0.0, 0.0, 1.0])) > 0

@@ -240,6 +240,11 @@ class BeamCuboid:
         return self.axes[:, 0]
 
     @property
+    def inclination_deg(self) -> float:
+        """Angle of the axis above the horizontal, degrees (0 flat, 90 plumb)."""
+        return float(np.degrees(np.arcsin(min(1.0, abs(float(self.axis[2]))))))
+
+    @property
     def half_extents(self) -> NDArray[np.float64]:
         return 0.5 * np.array([self.length, self.width, self.height])
 
@@ -308,7 +313,7 @@ class BeamResult:
                     "axis_x": b.axis[0],
                     "axis_y": b.axis[1],
                     "axis_z": b.axis[2],
-                    "inclination_deg": float(np.degrees(np.arcsin(min(1.0, abs(b.axis[2]))))),
+                    "inclination_deg": b.inclination_deg,
                     "length_m": b.length,
                     "width_m": b.width,
                     "height_m": b.height,

@@ -132,7 +132,7 @@ def roof_directions(
     the horizontal beams' directions (weighted by length) is the length.
     """
     p = (p or RoleParams()).validate()
-    incl = np.array([np.degrees(np.arcsin(min(1.0, abs(float(b.axis[2]))))) for b in beams])
+    incl = np.array([b.inclination_deg for b in beams])
     ang = np.array([np.arctan2(b.axis[1], b.axis[0]) for b in beams])
     plan_len = np.array([b.length * np.hypot(b.axis[0], b.axis[1]) for b in beams])
     sloped = (incl > p.horizontal_deg) & (incl < p.vertical_deg)
@@ -222,7 +222,7 @@ def guess_roles(
     sloped_across: list[int] = []
     for i in frame:
         c = beams[i]
-        incl = np.degrees(np.arcsin(min(1.0, abs(float(c.axis[2])))))
+        incl = c.inclination_deg
         plan = _plan(c.axis)
         runs_along = abs(float(plan @ along)) >= cos_along
         runs_across = abs(float(plan @ across)) >= cos_along
