@@ -216,9 +216,9 @@ def detect_supports_checked(
     instance = np.zeros(n, dtype=np.int32)
     rows = []
     rejected: list[str] = []
-    members: list[tuple[NDArray[np.intp], bool]] = []  # per row: its points, carries?
-    tops: list[float] = []  # per row: the underside of what it carries (inf: nothing)
-    covers: list[float] = []  # per row: share of sectors covered just above its top
+    # per row: its points, whether it carries, the underside of what it carries (inf:
+    # nothing) and the share of sectors covered just above its top
+    members: list[tuple[NDArray[np.intp], bool, float, float]] = []
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
         kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
@@ -242,10 +242,15 @@ def detect_supports_checked(
             rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
             continue
         rows.append(row)
-        members.append((cidx, bool(sh.get("carries", True))))
-        tops.append(float(sh.get("carried_z", np.inf)))
-        covers.append(float(sh.get("overhead", 0.0)))
-    thin = thin_free_columns(rows, [c for _, c in members])
+        members.append(
+            (
+                cidx,
+                bool(sh.get("carries", True)),
+                float(sh.get("carried_z", np.inf)),
+                float(sh.get("overhead", 0.0)),
+            )
+        )
+    thin = thin_free_columns(rows, [m[1] for m in members])
     if thin:
         notes.append(
             f"{len(thin)} round candidate{'s' if len(thin) > 1 else ''} carrying nothing and "
@@ -254,9 +259,7 @@ def detect_supports_checked(
         )
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
-        tops = [t for k, t in enumerate(tops) if k not in thin]
-        covers = [t for k, t in enumerate(covers) if k not in thin]
-    carries = [c for _, c in members]
+    carries, tops, covers = ([m[j] for m in members] for j in (1, 2, 3))
     low = low_carriers(rows, carries, tops) | covered_free_columns(rows, carries, covers)
     if low:
         notes.append(
@@ -267,7 +270,7 @@ def detect_supports_checked(
         )
         rows = [r for k, r in enumerate(rows) if k not in low]
         members = [m for k, m in enumerate(members) if k not in low]
-    for k, (cidx, _) in enumerate(members):
+    for k, (cidx, *_) in enumerate(members):
         instance[cidx] = k + 1
     if rejected:
         notes.append(

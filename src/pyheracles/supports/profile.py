@@ -200,6 +200,12 @@ def attached_share(
     return float(len(np.unique(lp.layer[joined[lp.piece]]))) / n_layers
 
 
+def angular_sector(ang: Array, sectors: int) -> NDArray[np.intp]:
+    """Sector (``0 .. sectors - 1``) of each angle ``ang`` (radians, -pi..pi) in a
+    circle cut into ``sectors`` equal sectors from -pi."""
+    return np.floor((ang + np.pi) / (2 * np.pi) * sectors).astype(np.intp) % sectors
+
+
 def band_reach(
     rho: Array,
     ang: Array,
@@ -225,7 +231,7 @@ def band_reach(
     if len(rho) == 0:
         return np.zeros(0)
     li = np.floor((z - z.min()) / layer).astype(np.intp)
-    si = np.floor((ang + np.pi) / (2 * np.pi) * sectors).astype(np.intp) % sectors
+    si = angular_sector(ang, sectors)
     nl = int(li.max()) + 1
     rmin = np.full((nl, sectors), np.inf)
     np.minimum.at(rmin, (li, si), rho)
@@ -333,5 +339,5 @@ def overhead_cover(z: Array, ang: Array, top: float) -> float:
     above = (z > top) & (z <= top + OVERHEAD_M)
     if not above.any():
         return 0.0
-    sec = np.floor((ang[above] + np.pi) / (2 * np.pi) * OVERHEAD_SECTORS).astype(np.int64)
-    return len(np.unique(sec % OVERHEAD_SECTORS)) / OVERHEAD_SECTORS
+    sec = angular_sector(ang[above], OVERHEAD_SECTORS)
+    return len(np.unique(sec)) / OVERHEAD_SECTORS
