@@ -49,7 +49,7 @@ def peak_rss_gb() -> float:
     return kb / 1e6 if sys.platform != "darwin" else kb / 1e9
 
 
-def run_cli(args: list[str]) -> dict[str, float]:
+def run_cli(args: list[str]) -> dict[str, Any]:
     """Run ``heracles ARGS`` in a fresh process, as a user would: its wall-clock and CPU
     seconds, its own peak resident memory (GB) and its exit code.
 
@@ -57,17 +57,20 @@ def run_cli(args: list[str]) -> dict[str, float]:
     """
     import os
     import subprocess
+    import tempfile
 
-    start = time.perf_counter()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "pyheracles", *args],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - start
-    stderr = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    proc.returncode = os.waitstatus_to_exitcode(status)
+    # stderr into a file, not a pipe: a child writing more than a pipe holds would block
+    # while this process waits for it to end
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pyheracles", *args], stdout=subprocess.DEVNULL, stderr=err
+        )
+        _, status, usage = os.wait4(proc.pid, 0)  # its own resource usage, not the sum
+        wall = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
+        err.seek(0)
+        stderr = err.read().decode(errors="replace")
     scale = 1e6 if sys.platform != "darwin" else 1e9
     return {
         "wall_s": wall,
