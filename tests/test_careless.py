@@ -28,7 +28,7 @@ import typer.main
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pyheracles.cli import app, main
+from pyheracles.cli import app, main, watch_interrupts
 from pyheracles.cli.common import STAGING_PREFIX
 
 with warnings.catch_warnings():  # imported by hypothesis on a failure; it warns on import,
@@ -220,6 +220,32 @@ def test_random_arguments(data, bad, paths, capsys, monkeypatch) -> None:
 
 
 # --- Ctrl-C -------------------------------------------------------------------------------
+
+
+def test_sigint_inside_a_c_callback_stops_the_run_without_a_traceback(capfd: Any) -> None:
+    """CI saw a Ctrl-C land in llvmlite's object-cache callback while numba compiled.
+
+    ctypes printed the KeyboardInterrupt as an ignored exception, traceback and all,
+    and the run went on.  The watch now delivers it to the main thread, unprinted.
+    """
+    import ctypes
+
+    def body() -> None:
+        os.kill(os.getpid(), signal.SIGINT)  # the handler runs inside this callback
+        sum(range(1000))
+
+    callback = ctypes.CFUNCTYPE(None)(body)
+    seen: list[bool] = []
+    with pytest.raises(KeyboardInterrupt), watch_interrupts() as interrupted:
+        callback()
+        seen.append(interrupted())
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline:  # the redelivered interrupt stops this loop
+            pass
+        seen.append(False)
+    assert seen == [True]
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
 
 
 def test_sigint_to_a_running_command(tmp_path: Path) -> None:

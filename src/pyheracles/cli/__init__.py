@@ -148,28 +148,72 @@ for _name in COMMAND_MODULES:
 
 
 @contextmanager
-def _watch_interrupts() -> Iterator[Callable[[], bool]]:
+def watch_interrupts() -> Iterator[Callable[[], bool]]:
     """Note a Ctrl-C even when a library turns the KeyboardInterrupt into its own error.
 
-    Installed only over Python's default SIGINT handler, in the main thread.
+    Installed only over Python's default SIGINT handler, in the main thread.  A Ctrl-C
+    that lands inside a callback from C (llvmlite's object-cache notifier while numba
+    compiles, a ctypes or pybind11 callback) cannot leave that callback: the library
+    prints it as an "ignored" exception with its traceback and carries on.  While the
+    watch is on, such a KeyboardInterrupt is not printed but delivered again to the
+    main thread (``_thread.interrupt_main`` from a timer thread), where it stops the run as usual.
     """
+    import _thread
+    import threading
+
     hit = [False]
+    in_hook = [False]
 
     def handler(signum: int, frame: Any) -> None:
         hit[0] = True
+        if in_hook[0]:  # raising here would only print another "ignored" traceback
+            later()
+            return
         raise KeyboardInterrupt
 
+    def later() -> None:
+        # From a second thread, once the hook has returned: the main thread's next
+        # bytecode outside the callback runs the handler, which raises there.
+        threading.Timer(0.02, _thread.interrupt_main).start()
+
+    def redeliver(exc_type: type[BaseException] | None) -> bool:
+        if exc_type is None or not issubclass(exc_type, KeyboardInterrupt):
+            return False
+        hit[0] = True
+        later()
+        return True
+
+    def unraisable(info: Any) -> None:
+        in_hook[0] = True
+        try:
+            if not redeliver(info.exc_type):
+                previous_unraisable(info)
+        finally:
+            in_hook[0] = False
+
+    def excepthook(exc_type: Any, exc: Any, tb: Any) -> None:
+        in_hook[0] = True
+        try:
+            if not redeliver(exc_type):
+                previous_excepthook(exc_type, exc, tb)
+        finally:
+            in_hook[0] = False
+
     previous = None
+    previous_unraisable, previous_excepthook = sys.unraisablehook, sys.excepthook
     try:
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
             previous = signal.signal(signal.SIGINT, handler)
     except (ValueError, OSError):  # pragma: no cover - not the main thread
         previous = None
+    if previous is not None:
+        sys.unraisablehook, sys.excepthook = unraisable, excepthook
     try:
         yield lambda: hit[0]
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
+            sys.unraisablehook, sys.excepthook = previous_unraisable, previous_excepthook
 
 
 def _caused_by_interrupt(exc: BaseException) -> bool:
@@ -255,7 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     _STATE["debug"] = os.environ.get("HERACLES_DEBUG", "") not in ("", "0")
     set_quiet(False)
-    with _watch_interrupts() as interrupted:
+    with watch_interrupts() as interrupted:
         try:
             rv = app(args=args, prog_name="heracles", standalone_mode=False)
         except BaseException as exc:
