@@ -280,13 +280,15 @@ def _error_sources(sim, seg, ev_objects) -> dict:
     Over the scored objects with F1 < 0.9: missed points by reference part and by what
     took them (``ground``, ``remainder``, ``other_object``); extra points by their true
     class (``ground``, ``tree``, ``clutter``, ``outlier``, or ``building``/``wall``/``gate``
-    for another feature's points).
+    for another feature's points).  ``by_object`` gives the same counts for each such
+    object (``layer/fid``), so the failures can be tallied per object and cause.
     """
     res = sim.clouds["cloud"]
     sc = sim.scene
     bad = ev_objects[(ev_objects["f1"] < 0.9) & ev_objects["scored"]]
     missed: dict[str, int] = {}
     extra: dict[str, int] = {}
+    by_object: dict[str, dict[str, dict[str, int]]] = {}
     pred_of = {}
     for _, row in bad.iterrows():
         for q in row["predicted"]:
@@ -301,16 +303,21 @@ def _error_sources(sim, seg, ev_objects) -> dict:
             seg.ground[fn], "ground", np.where(seg.instance[fn] == 0, "remainder", "other_object")
         )
         parts = np.array([sc.part_names[int(c)] for c in res.part[fn]]) if fn.any() else []
+        mine_missed: dict[str, int] = {}
+        mine_extra: dict[str, int] = {}
         for w, pname in zip(where, parts, strict=True):
             k = f"{row['layer']}.{pname}->{w}"
             missed[k] = missed.get(k, 0) + 1
+            mine_missed[f"{pname}->{w}"] = mine_missed.get(f"{pname}->{w}", 0) + 1
         fp = got & ~is_ref
         for c, o in zip(res.class_id[fp], res.outlier[fp], strict=True):
             k = "outlier" if o else sc.class_names[int(c)]
+            mine_extra[k] = mine_extra.get(k, 0) + 1
             k = f"{row['layer']}<-{k}"
             extra[k] = extra.get(k, 0) + 1
+        by_object[str(row["key"])] = {"missed": mine_missed, "extra": mine_extra}
     top = lambda d: dict(sorted(d.items(), key=lambda kv: -kv[1])[:8])  # noqa: E731
-    return {"missed": top(missed), "extra": top(extra)}
+    return {"missed": top(missed), "extra": top(extra), "by_object": by_object}
 
 
 def bench_sweep(n: int, first_seed: int) -> None:
