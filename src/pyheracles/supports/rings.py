@@ -132,6 +132,29 @@ ARC_MIN_SECTORS = 4
 #: A group of arcs is a column ring when they cover at least this many of 36 sectors
 #: (a quarter ring, as :func:`ring_island` asks of scattered points).
 RING_MIN_SECTORS = 9
+#: The rectangle a ring is compared with is fitted to the points within this many
+#: trimmed RMS of the circle (and at least ``RING_INLIER_MIN_M``, metres) only.
+RING_INLIER_SIGMAS = 3.0
+RING_INLIER_MIN_M = 0.01
+
+
+def rectangle_rms_on_circle(p: Array, residuals: Array, c_rms: float) -> float:
+    """Trimmed RMS of the points ``p`` the circle explains to the rectangle outline they
+    lie on (:func:`~pyheracles.supports.piers.outline_rectangle`), metres.
+
+    ``residuals``: the points' distances to the circle, ``c_rms`` their trimmed RMS.
+    The points within ``RING_INLIER_SIGMAS`` x ``c_rms`` (at least
+    ``RING_INLIER_MIN_M``) of the circle are kept (all when fewer than 5): a few stray
+    points off both shapes (a rope, a sign or a fence bar touching the support) set
+    the extent of a rectangle, whose outline they lie on, not of a circle, and turned
+    the rectangle of a square pier to its diagonal (draw 8 of the supports family: a
+    0.3 x 0.3 m pier with a tail of eight points 0.4 m long fitted its rectangle
+    within 2.2 cm, a circle of 0.16 m radius within 1.5 cm).
+    """
+    on = np.abs(residuals) <= max(RING_INLIER_SIGMAS * c_rms, RING_INLIER_MIN_M)
+    q = p[on] if np.count_nonzero(on) >= 5 else p
+    centre, angle, size = outline_rectangle(q)
+    return rect_rms(q, centre, angle, size)[0]
 
 
 def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
@@ -144,6 +167,8 @@ def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
     rectangle outline the points lie on (:func:`~pyheracles.supports.piers.outline_rectangle`:
     the two faces of a small pier seen from a corner fit a circle within 1.5 cm; draw 32
     of the supports family, piers of 0.49 x 0.31 m taken for columns of 0.2 m radius).
+    Circle and rectangle are compared on the points the circle explains
+    (:func:`rectangle_rms_on_circle`).
     """
     if len(p) < 5:
         return None
@@ -158,8 +183,7 @@ def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
     line_rms = float(np.sqrt(max(ev[0], 0.0)))
     if c_rms > 0.01 + 0.03 * circle.radius or c_rms > 0.5 * line_rms:
         return None
-    centre, angle, size = outline_rectangle(p)
-    if c_rms > 2.0 * rect_rms(p, centre, angle, size)[0]:
+    if c_rms > 2.0 * rectangle_rms_on_circle(p, circle.residuals(p), c_rms):
         return None  # the points lie on a rectangle: a pier seen from a corner
     ang = np.arctan2(p[:, 1] - circle.center[1], p[:, 0] - circle.center[0])
     sectors = len(np.unique(np.floor((ang + np.pi) / (2 * np.pi) * 36).astype(int)))

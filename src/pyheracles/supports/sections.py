@@ -23,6 +23,7 @@ from pyheracles.supports.rings import (
     RING_RADIUS_M,
     gap_clusters,
     join_arcs,
+    rectangle_rms_on_circle,
     ring_island,
     rings_from_arcs,
     twin_rings,
@@ -77,10 +78,16 @@ def classify_island(
             RING_RADIUS_M[0] <= circle.radius <= RING_RADIUS_M[1]
             and c_rms <= 0.01 + 0.03 * circle.radius
         )
+        # the rectangle is also fitted to the points the circle explains: stray points
+        # off both (a rope, a sign touching a square pier) set the rectangle's extent
+        # and turned it to the diagonal, where the circle beat it
+        cmp_rms = r_rms
+        if circle and c_rms < r_rms:
+            cmp_rms = min(r_rms, rectangle_rms_on_circle(p, circle.residuals(p), c_rms))
         if (
             circle
-            and c_rms < r_rms
-            and (circ <= params.circularity_max or c_rms < 0.5 * r_rms or on_ring)
+            and c_rms < cmp_rms
+            and (circ <= params.circularity_max or c_rms < 0.5 * cmp_rms or on_ring)
         ):
             kind, centre, radius = "column", circle.center, circle.radius
         else:
