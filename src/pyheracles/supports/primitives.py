@@ -228,6 +228,68 @@ def pier_box(pts: Array, sh: dict, tol: float) -> BoxFit | FailedFit:
     return alt if wide or alt.rms < box.rms else box
 
 
+#: A pier's box is fitted again to the prism of its shaft band when more than this
+#: share of the prism's points lie outside the box of the faces its section saw.
+PRISM_OUTSIDE_SHARE = 0.05
+
+
+def prism_points(pts: Array, cell: float, *, layers: int = 8, min_layers: int = 5) -> Array:
+    """Mask of the points in plan cells occupied over most of their height.
+
+    ``pts`` are a pier's points between its base and capital bands; the height is cut
+    into ``layers`` equal layers and the plan into square cells of ``cell`` metres.  A
+    cell of the pier's faces holds points in at least ``min_layers`` layers (a face
+    runs from the base to the capital); a chair, a fence or a sign touching the pier,
+    or a ceiling's edge, fills a few layers of its cells.
+    """
+    if len(pts) == 0:
+        return np.zeros(0, dtype=bool)
+    z = pts[:, 2]
+    span = float(np.ptp(z))
+    if span <= 0:
+        return np.zeros(len(pts), dtype=bool)
+    layer = np.minimum(((z - z.min()) / span * layers).astype(np.int64), layers - 1)
+    ij = np.floor((pts[:, :2] - pts[:, :2].min(axis=0)) / cell).astype(np.int64)
+    key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
+    cells, inv = np.unique(key, return_inverse=True)
+    occupied = np.zeros((len(cells), layers), dtype=bool)
+    occupied[inv, layer] = True
+    return occupied.sum(axis=1)[inv] >= min_layers
+
+
+def outside_share(pts: Array, box: BoxFit, margin: float) -> float:
+    """Share of ``pts`` farther than ``margin`` outside an upright box, in plan."""
+    vert = int(np.argmax(np.abs(box.axes[2])))
+    h = [k for k in range(3) if k != vert]
+    local = (pts - box.centre) @ box.axes[:, h]
+    out = np.abs(local) - 0.5 * box.extents[h] > margin
+    return float(np.mean(out.any(axis=1))) if len(pts) else 0.0
+
+
+def _pier_fields(pts: Array, box: BoxFit, tol: float, z_min: float) -> dict[str, float]:
+    """Objects-table fields of a pier from its box: centre, sides, axis, RMS, bands."""
+    vert = int(np.argmax(np.abs(box.axes[2])))
+    horiz = sorted((box.extents[k] for k in range(3) if k != vert), reverse=True)
+    h = [k for k in range(3) if k != vert]
+    local = (pts - box.centre) @ box.axes[:, h]  # plan coordinates in the box frame
+    reach = np.max(np.abs(local) / (0.5 * box.extents[h]), axis=1)  # 1 on the sides
+    noise = max(float(box.rms), 0.25 * tol) / (0.5 * float(min(box.extents[h])))
+    base, cap = part_bands(pts[:, 2] - z_min, reach, np.ones(len(pts)), noise)
+    return {
+        "x": float(box.centre[0]),
+        "y": float(box.centre[1]),
+        "box_length_m": float(horiz[0]),
+        "box_width_m": float(horiz[1]),
+        "box_height_m": float(np.ptp(pts[:, 2])),
+        "fit_rms_m": box.rms,
+        "axis_x": float(box.axes[0, 0]),
+        "axis_y": float(box.axes[1, 0]),
+        "axis_z": float(box.axes[2, 0]),
+        "base_top_m": base,
+        "capital_bottom_m": cap,
+    }
+
+
 def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | None = None) -> dict:
     """Objects-table row of one support (its points ``pts``) with its fitted primitive.
 
@@ -251,6 +313,10 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
     dict
         The row; columns as in the module docstring.  Piers get ``base_top_m`` /
         ``capital_bottom_m`` from the reach of their layers beyond the fitted box.
+        A pier's box is that of the faces its section saw, or, when more than
+        :data:`PRISM_OUTSIDE_SHARE` of the points of its shaft band that outline a
+        prism (:func:`prism_points`) lie outside it, the box of that prism (a face
+        shadowed at the section but seen above or below it).
         A column's row also holds ``cylinder_radius_m``, the radius of the cylinder
         of the section's shaft points (the detection's checks of a candidate: does its
         cylinder agree with its section circle, is it thinner than the columns that
@@ -328,25 +394,19 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
     else:
         box = pier_box(fit_pts, sh, tol)
         if box:
-            vert = int(np.argmax(np.abs(box.axes[2])))
-            horiz = sorted((box.extents[k] for k in range(3) if k != vert), reverse=True)
-            row.update(
-                x=float(box.centre[0]),
-                y=float(box.centre[1]),
-                box_length_m=float(horiz[0]),
-                box_width_m=float(horiz[1]),
-                box_height_m=float(np.ptp(pts[:, 2])),
-                fit_rms_m=box.rms,
-                axis_x=float(box.axes[0, 0]),
-                axis_y=float(box.axes[1, 0]),
-                axis_z=float(box.axes[2, 0]),
-            )
-            h = [k for k in range(3) if k != vert]
-            local = (pts - box.centre) @ box.axes[:, h]  # plan coordinates in the box frame
-            reach = np.max(np.abs(local) / (0.5 * box.extents[h]), axis=1)  # 1 on the sides
-            noise = max(float(box.rms), 0.25 * tol) / (0.5 * float(min(box.extents[h])))
-            base, cap = part_bands(pts[:, 2] - row["z_min"], reach, np.ones(len(pts)), noise)
-            row.update(base_top_m=base, capital_bottom_m=cap)
+            row.update(_pier_fields(pts, box, tol, row["z_min"]))
+            # the section may have seen one face of a pier whose other faces show above
+            # or below it: the box of the prism its shaft band outlines, when that band
+            # lies mostly outside the box of the section's faces
+            lo = row["base_top_m"] if np.isfinite(row["base_top_m"]) else 0.0
+            hi = row["capital_bottom_m"] if np.isfinite(row["capital_bottom_m"]) else np.inf
+            h = pts[:, 2] - row["z_min"]
+            band = pts[(h > lo) & (h < hi)]
+            prism = band[prism_points(band, max(0.02, 2.0 * tol))]
+            if len(prism) >= 20 and outside_share(prism, box, 2.0 * tol) > PRISM_OUTSIDE_SHARE:
+                wider = pier_box(prism, sh, tol)
+                if wider:
+                    row.update(_pier_fields(pts, wider, tol, row["z_min"]))
     if np.isnan(row["x"]):
         row["x"], row["y"] = (float(v) for v in sh["centre"])
     return row
