@@ -13,6 +13,7 @@ from pyheracles.complex.params import EXACT_LIMIT, ComplexParams
 from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
 
 __all__ = [
+    "EDGE_SHARE",
     "POROUS_NEIGHBOURS",
     "POROUS_RADIUS_M",
     "SOLID_SHARE",
@@ -141,7 +142,9 @@ def object_points(
     ``params.scatter_rise_m`` above the object's surface beside them.
     ``solid`` (over ``cand``) marks the points where a pulse ended (its last or only
     return), when the cloud has echoes: where the surface variation flags every
-    candidate, the solid points that are not porous make the core instead.
+    candidate, the solid points that are not porous make the core instead.  Where
+    fewer than :data:`EDGE_SHARE` of the object's points are smooth (a thin tower is
+    all edges), the scattered points joined raise its top once for the solid ones.
     """
     keep = np.zeros(len(cand), dtype=bool)
     cand_in = cand_dist == 0.0
@@ -193,8 +196,42 @@ def object_points(
         surface = local_top(xyz[cand[keep]], xyz[cand[eligible], :2], reach)
         high = xyz[cand[eligible], 2] > surface + params.scatter_rise_m
         eligible = eligible[~(high & porous[eligible])]
+    n_core = int(keep.sum())
+    _join_scattered(xyz, cand, keep, eligible, cand_in, solid, porous, reach, params)
+    if solid is not None and n_core < EDGE_SHARE * keep.sum():
+        # A thin, tall part is all edges: the few smooth points are its lowest part, and
+        # its top stood above theirs (complex draw 23: a gate tower's 9 top points left
+        # out).  Where most of the object is scattered points, those just joined raise
+        # the top once, for solid returns only (a crown's pulses go on through it); a
+        # roof with a crown over it is mostly smooth, and its top stays.
+        raised = float(np.percentile(xyz[cand[keep], 2], 99)) + rise
+        later = loose[near_edge & ~keep[loose] & solid[loose]]
+        if porous is not None:
+            later = later[~porous[later]]
+        later = later[(xyz[cand[later], 2] > top) & (xyz[cand[later], 2] <= raised)]
+        _join_scattered(xyz, cand, keep, later, cand_in, solid, porous, reach, params)
+    return keep
+
+
+def _join_scattered(
+    xyz: NDArray[np.float64],
+    cand: NDArray[np.int64],
+    keep: NDArray[np.bool_],
+    eligible: NDArray[np.int64],
+    cand_in: NDArray[np.bool_],
+    solid: NDArray[np.bool_] | None,
+    porous: NDArray[np.bool_] | None,
+    reach: float,
+    params: ComplexParams,
+) -> None:
+    """Set ``keep`` (in place) on the ``eligible`` scattered candidates linked to the object.
+
+    Groups of them (clusters at twice the clustering distance) join when one of their
+    points lies within ``reach`` of a kept point; the others when they make a solid part
+    of the feature (:func:`solid_structures`).
+    """
     if len(eligible) == 0:
-        return keep
+        return
     from scipy.spatial import cKDTree
 
     dist, _ = cKDTree(xyz[cand[keep]]).query(xyz[cand[eligible]], k=1, distance_upper_bound=reach)
@@ -207,7 +244,11 @@ def object_points(
         keep[rest[solid_structures(sub[~touching[sub]], cand_in[rest], solid[rest],
                                    None if porous is None else porous[rest],
                                    int(params.min_cluster_points))]] = True  # type: ignore[arg-type]
-    return keep
+
+
+#: Largest share of an object's points that may be smooth for the top to be raised by the
+#: scattered points joined to it (see :func:`object_points`).
+EDGE_SHARE = 0.5
 
 
 #: Least share of a separate group of scattered points that must be solid returns (the
