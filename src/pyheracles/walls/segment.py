@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike
 from pyheracles.errors import InputError
 from pyheracles.walls.faces import face_points, find_faces
 from pyheracles.walls.joins import join_walls, snap_outline
+from pyheracles.walls.junctions import cut_faces, junction_cuts
 from pyheracles.walls.model import Wall, WallFace, WallParams, WallResult
 from pyheracles.walls.outlines import wall_outline
 from pyheracles.walls.pairing import material_side, pair_faces
@@ -97,25 +98,13 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
         faces.append(WallFace(nrm2, d2, idx, rms))
     timings["face_points"] = time.perf_counter() - t
     t = time.perf_counter()
-    groups = pair_faces(pts, faces, p)
     tree = cKDTree(pts[sample])
     sample_pts = pts[sample]
-    drafts: list[dict[str, Any]] = []
-    for g in groups:
-        fs = [faces[i] for i in g]
-        nrm = fs[0].normal
-        if len(fs) == 2:
-            s = math.copysign(1.0, float(nrm @ fs[1].normal))
-            d_mid = 0.5 * (fs[0].d + s * fs[1].d)
-            thick = abs(fs[0].d - s * fs[1].d)
-            side = 0
-        else:
-            d_mid, thick = fs[0].d, float("nan")
-            side = material_side(pts, tree, fs[0], p)
-        origin, u = plane_frame(nrm, d_mid)
-        drafts.append({"faces": fs, "normal": nrm, "d": d_mid, "thick": 0.0 if len(fs) == 1
-                       else thick, "thickness": thick, "origin": origin, "u_axis": u,
-                       "side": side, "joined": []})  # fmt: skip
+    drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
+    cuts = junction_cuts(pts, drafts, p)
+    if any(cuts):  # faces cut where walls abut their wall, and paired again
+        faces = cut_faces(pts, faces, drafts, cuts, p)
+        drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
     # outlines and openings
     for w in drafts:
         idx = np.concatenate([f.indices for f in w["faces"]])
@@ -170,3 +159,26 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
             )
     timings["walls"] = time.perf_counter() - t
     return WallResult(labels, tuple(walls), p, tuple(notes), timings)
+
+
+def _drafts(pts: np.ndarray, faces: list[WallFace], groups: list[tuple[int, ...]], tree: Any,
+            p: WallParams) -> list[dict[str, Any]]:  # fmt: skip
+    """One draft wall per group of faces (:func:`pair_faces`): its faces, mid-plane,
+    thickness (NaN seen on one face), plane frame and the side of a lone face."""
+    drafts: list[dict[str, Any]] = []
+    for g in groups:
+        fs = [faces[i] for i in g]
+        nrm = fs[0].normal
+        if len(fs) == 2:
+            s = math.copysign(1.0, float(nrm @ fs[1].normal))
+            d_mid = 0.5 * (fs[0].d + s * fs[1].d)
+            thick = abs(fs[0].d - s * fs[1].d)
+            side = 0
+        else:
+            d_mid, thick = fs[0].d, float("nan")
+            side = material_side(pts, tree, fs[0], p)
+        origin, u = plane_frame(nrm, d_mid)
+        drafts.append({"faces": fs, "normal": nrm, "d": d_mid, "thick": 0.0 if len(fs) == 1
+                       else thick, "thickness": thick, "origin": origin, "u_axis": u,
+                       "side": side, "joined": []})  # fmt: skip
+    return drafts
