@@ -17,7 +17,14 @@ from numpy.typing import NDArray
 
 from pyheracles.progress import track
 
-__all__ = ["GridIndex", "claims", "footprints_of", "overlaps_by_continuity", "to_local"]
+__all__ = [
+    "GridIndex",
+    "claims",
+    "footprints_of",
+    "nearest_layer",
+    "overlaps_by_continuity",
+    "to_local",
+]
 
 
 class GridIndex:
@@ -187,6 +194,62 @@ def overlaps_by_continuity(
     has_choice[pts[contested_row & (poly == chosen[pts])]] = True
     drop = has_choice[pts] & (poly != chosen[pts])
     return pts[~drop], poly[~drop], dist[~drop]
+
+
+def nearest_layer(
+    layers: Mapping[str, NDArray[Any]],
+    buffer_m: float,
+    xy: NDArray[np.float64],
+    index: GridIndex,
+    outside: NDArray[np.bool_],
+    tops: Mapping[str, NDArray[np.float64]],
+) -> dict[str, NDArray[np.bool_]]:
+    """Per layer, the points of its polygons' buffer rings nearer to another layer's polygon.
+
+    The buffer ring absorbs digitising errors: a point outside every polygon belongs
+    to the feature it lies nearest to.  Layers are processed one after the other, and
+    the first layer's buffer took the points of the next layer's features beside it
+    (complex draw 0: the end of a wall 0.15 m from its polygon and 0.5 m from the gate
+    beside it went to the gate).  Step 1 leaves such points out of the first layer's
+    objects (after their clustering, which they may still link).
+
+    ``layers`` holds each layer's polygons (local frame); ``outside`` marks the
+    candidate points, those outside every polygon.  A polygon
+    counts for a point only where the point stands no higher than ``tops`` (per layer,
+    per polygon; NaN: none): what rises above a feature's top beside it is not that
+    feature's (an eave over a garden wall beside the house).  Ties stay with every
+    layer at that distance.
+    """
+    n = len(xy)
+    best = np.full(n, np.inf, dtype=np.float32)
+    dist: dict[str, tuple[NDArray[np.int64], NDArray[np.float32]]] = {}
+    for name, geoms in layers.items():
+        buffered = shapely.buffer(geoms, buffer_m)
+        shapely.prepare(buffered)
+        idx_all, d_all = [], []
+        for k in range(len(geoms)):
+            cand = index.query_box(*shapely.bounds(buffered[k]))
+            cand = cand[outside[cand]]
+            cand = cand[shapely.contains_xy(buffered[k], xy[cand, 0], xy[cand, 1])]
+            cand = cand[xy[cand, 2] <= tops[name][k]]  # NaN: no point inside, none
+            if len(cand):
+                idx_all.append(cand)
+                d_all.append(
+                    shapely.distance(geoms[k], shapely.points(xy[cand, 0], xy[cand, 1])).astype(
+                        np.float32
+                    )
+                )
+        if idx_all:
+            idx, d = np.concatenate(idx_all), np.concatenate(d_all)
+            np.minimum.at(best, idx, d)
+            dist[name] = (idx, d)
+    out: dict[str, NDArray[np.bool_]] = {}
+    for name in layers:
+        mine = np.full(n, np.inf, dtype=np.float32)
+        if name in dist:
+            np.minimum.at(mine, *dist[name])
+        out[name] = np.isfinite(best) & (best < mine)
+    return out
 
 
 def footprints_of(

@@ -15,10 +15,10 @@ from numpy.typing import NDArray
 
 from pyheracles.cloud import PointCloud
 from pyheracles.complex.clusters import hull, object_points, porous_points, scattered_points
-from pyheracles.complex.cookie import GridIndex, claims, footprints_of, to_local
+from pyheracles.complex.cookie import GridIndex, claims, footprints_of, nearest_layer, to_local
 from pyheracles.complex.crowns import crown_points
 from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
-from pyheracles.complex.params import ComplexParams, ComplexResult, resolve_params
+from pyheracles.complex.params import LEVEL_SAMPLE, ComplexParams, ComplexResult, resolve_params
 from pyheracles.errors import InputError
 from pyheracles.geometry.neighbours import point_spacing
 from pyheracles.ground import pass_through_of
@@ -84,6 +84,7 @@ class _Site:
     pass_through: NDArray[np.bool_] | None
     instance: NDArray[np.int32]
     class_id: NDArray[np.uint8]
+    elsewhere: dict[str, NDArray[np.bool_]]
 
 
 def _segment_layer(
@@ -128,6 +129,9 @@ def _segment_layer(
         )
         if rp.crown_rise_m is not None and keep.sum() >= 3:
             keep[np.flatnonzero(keep)[_crowns(site, cand[keep], buffered[k], rp)]] = False
+        # points of the buffer ring nearer to another layer's feature are left to it
+        # (they linked the object's clusters all the same)
+        keep &= ~site.elsewhere[name][cand]
         if keep.sum() < int(rp.min_cluster_points):  # type: ignore[arg-type]
             empty.append(gdf["source_fid"].iloc[k])
             continue
@@ -178,6 +182,26 @@ def _crowns(
         site.xyz, members, off, radius, float(rp.crown_rise_m),  # type: ignore[arg-type]
         rp.crown_share,
     )  # fmt: skip
+
+
+def _tops(
+    xyz: NDArray[np.float64],
+    footprints: Sequence[NDArray[np.int64]],
+    pool: NDArray[np.bool_],
+    rp: ComplexParams,
+) -> NDArray[np.float64]:
+    """Highest a point beside each polygon may stand and be its feature's, metres.
+
+    The 99th percentile of the pool points inside it, plus ``outside_above_top_m``
+    (what :func:`object_points` keeps outside a polygon); NaN where none is inside.
+    """
+    above = float(rp.outside_above_top_m) if rp.outside_above_top_m is not None else np.inf
+    out = np.full(len(footprints), np.nan)
+    for k, inside in enumerate(footprints):
+        z = xyz[inside[pool[inside]], 2]
+        if len(z):
+            out[k] = float(np.percentile(z[:: max(1, len(z) // LEVEL_SAMPLE)], 99)) + above
+    return out
 
 
 # ----------------------------------------------------------------------------- main
@@ -268,6 +292,10 @@ def segment_complex(
     timings["layer_order"] = time.perf_counter() - t
 
     t = time.perf_counter()
+    local = {k: to_local(g.geometry.to_numpy(), cloud.offset) for k, g in layers.items()}
+    buffer = float(rp.buffer_m)  # type: ignore[arg-type]
+    tops = {k: _tops(xyz, footprints[k], pool, rp) for k in layers}
+    elsewhere = nearest_layer(local, buffer, xyz, index, pool & ~inside_any, tops)
     site = _Site(
         xyz=xyz,
         offset=cloud.offset,
@@ -284,6 +312,7 @@ def segment_complex(
         pass_through=through,
         instance=np.zeros(n, dtype=np.int32),
         class_id=np.zeros(n, dtype=np.uint8),
+        elsewhere=elsewhere,
     )
     classes: dict[int, str] = {}
     rows: list[dict[str, Any]] = []
