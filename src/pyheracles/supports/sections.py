@@ -142,6 +142,7 @@ def section_islands(
         out = sparse_islands(xy, labels, out, params, distance_m)
         # last: the pier islands of sparse outlines have their dense faces as walls
         out = face_and_outline(xy, out, params, distance_m)
+        out = face_and_sides(xy, out, params, distance_m)
     return out
 
 
@@ -324,6 +325,150 @@ def face_and_outline(
     if not joined:
         return islands
     return [i for k, i in enumerate(islands) if k not in used] + joined
+
+
+#: A face runs on past its end when section points lie on its line within this many
+#: times its own point spacing beyond the end (at least two clustering distances, at
+#: most ``FACE_RUN_GAP_MAX_M``).
+FACE_RUN_SPACINGS = 4.0
+FACE_RUN_GAP_MAX_M = 0.5
+
+
+def face_runs_on(
+    xy: Array,
+    own: NDArray[np.intp],
+    c: Array,
+    u: Array,
+    ext: Array,
+    off: float,
+    tol: float,
+    *,
+    both_ends: bool = True,
+) -> bool:
+    """Whether the line of a straight face (centre ``c``, direction ``u``, extent ``ext``
+    along it, its points ``own``) goes on past one of its ends: section points within
+    ``off`` of the line, beyond an end by at most ``FACE_RUN_SPACINGS`` times the face's
+    own point spacing (at least ``tol``, at most ``FACE_RUN_GAP_MAX_M``).  A wall face
+    scanned from afar breaks into islands at the gaps between its scan lines; a pier's
+    outline turns at the ends of its face (the next pier of a row stands a bay away).
+    ``both_ends=False`` looks past ``ext[1]`` only (a side face running back from a
+    pier's face, whose other end is the face itself).
+    """
+    t_own = np.sort((xy[own] - c) @ u)
+    step = float(np.median(np.diff(t_own))) if len(t_own) > 1 else 0.0
+    if not np.isfinite(step):
+        step = 0.0
+    gap = min(max(tol, FACE_RUN_SPACINGS * step), FACE_RUN_GAP_MAX_M)
+    q = xy - c
+    t, s = q @ u, q @ np.array([-u[1], u[0]])
+    line = np.abs(s) <= off
+    line[own] = False
+    beyond = (t > ext[1]) & (t <= ext[1] + gap)
+    if both_ends:
+        beyond |= (t < ext[0]) & (t >= ext[0] - gap)
+    return bool(np.any(line & beyond))
+
+
+def long_wall_on_line(xy: Array, walls: NDArray[np.intp], c: Array, u: Array, off: float) -> bool:
+    """Whether the points ``walls`` (of the wall islands longer than any support) cover
+    ``WALL_LINE_COVER_M`` of the line through ``c`` along ``u`` within ``off`` of it
+    (in bins of ``WALL_LINE_COVER_M`` / 5): a face on the line of a wall's face is that
+    wall's, between two of its openings (draw 34 of the supports family: the pieces of
+    a side wall between its doors, a dense inner face and two reveals, were piers)."""
+    if len(walls) == 0:
+        return False
+    q = xy[walls] - c
+    on = np.abs(q @ np.array([-u[1], u[0]])) <= off
+    bin_m = WALL_LINE_COVER_M / 5
+    return len(np.unique(np.floor((q[on] @ u) / bin_m))) >= 5
+
+
+def face_and_sides(
+    xy: Array, islands: list[Island], params: SupportParams, distance_m: float
+) -> list[Island]:
+    """Piers seen square on from one side: a dense face and the sparse points of the two
+    faces that run back from its ends.
+
+    The scan lines that cross a pier's front face square on are close together; those
+    that graze its two side faces are far apart, so the side faces' points are left over
+    (noise, or grouped at no gap) while the front face, longer than 1 m and thin, is a
+    "wall" (draws 11 and 30 of the supports family: piers of 2.0 x 1.2 m in a portico's
+    front row, their side faces a point every 10 cm).  A straight wall island no longer
+    than ``max_support_size_m`` (:func:`short_wall_faces`) not used by another rule is
+    the face of a pier when, on one side of it, the points left over (not in any
+    column, pier or wall island) hold at least ``FACE_END_POINTS`` within three clustering
+    distances (at least 10 cm) of each of its two ends, running back at least
+    ``min_support_size_m`` from it; the face and the left-over points between its ends
+    on that side, up to the deepest of them, must make a pier whose outline they lie on
+    (:data:`SPARSE_RECT_RMS_M` plus 2 % of its length).  A face whose line runs on past
+    an end (:func:`face_runs_on`) is a piece of a longer wall face, not a pier's, and so
+    is a face on the line of a long wall's face (:func:`long_wall_on_line`), or one whose
+    side runs on a long wall's line (the inner corner of two walls).  The
+    wall-piece tests of the supports (:func:`~pyheracles.supports.detect.wall_pieces`)
+    then judge it as any pier island (the piece of a wall between two doors has the wall
+    in line with it).
+    """
+    faces = short_wall_faces(islands, xy, params)
+    if not faces:
+        return islands
+    left = np.ones(len(xy), dtype=bool)
+    for i in islands:
+        if i.kind != "noise":
+            left[i.index] = False
+    pool = np.flatnonzero(left)
+    if len(pool) < 2 * FACE_END_POINTS:
+        return islands
+    tol = max(0.1, 3.0 * distance_m)
+    long_walls = np.concatenate(
+        [np.zeros(0, np.intp)]
+        + [
+            i.index
+            for i in islands
+            if i.kind == "wall" and float(np.max(i.size)) > params.max_support_size_m
+        ]
+    )
+    used: set[int] = set()
+    piers: list[Island] = []
+    for kw, (c, u, ext, rms) in faces.items():  # a few dozen short walls at most
+        nrm = np.array([-u[1], u[0]])
+        if face_runs_on(xy, islands[kw].index, c, u, ext, max(0.03, 3.0 * rms), tol):
+            continue  # a piece of a longer (sparse) face: the outline does not turn there
+        if long_wall_on_line(xy, long_walls, c, u, max(0.03, 3.0 * rms)):
+            continue  # a piece of a wall between openings, its face on the wall's line
+        q = xy[pool] - c
+        t, s = q @ u, q @ nrm
+        edge = max(0.02, 3.0 * rms)  # off the face's own points
+        near = (t >= ext[0] - tol) & (t <= ext[1] + tol) & (np.abs(s) > edge)
+        near &= np.abs(s) <= params.max_support_size_m
+        for side in (1.0, -1.0):
+            on = near & (side * s > 0)
+            ends = [on & (np.abs(t - e) <= tol) for e in ext]
+            if min(np.count_nonzero(e) for e in ends) < FACE_END_POINTS:
+                continue
+            depths = [float(np.max(side * s[e])) for e in ends]
+            if min(depths) < params.min_support_size_m:
+                continue
+            back = side * nrm  # the side faces run back from the face's ends
+            if any(
+                face_runs_on(
+                    xy, pool[e], c + u * x, back, np.array([0.0, d]), tol, tol, both_ends=False
+                )
+                for e, x, d in zip(ends, ext, depths, strict=True)
+            ) or any(
+                long_wall_on_line(xy, long_walls, c + u * x, back, tol) for x in ext
+            ):
+                continue  # a side runs on past the back, or on a wall's line: a wall's
+            take = pool[on & (side * s <= max(depths) + tol)]
+            idx = np.r_[islands[kw].index, take]
+            isl = classify_island(xy[idx], idx, params)
+            if isl.kind != "pier" or isl.rect_rms > SPARSE_RECT_RMS_M + 0.02 * float(isl.size[0]):
+                continue
+            used.add(kw)
+            piers.append(isl)
+            break
+    if not piers:
+        return islands
+    return [i for k, i in enumerate(islands) if k not in used] + piers
 
 
 #: The points left over are grouped again at gaps doubling from twice the clustering
