@@ -148,7 +148,7 @@ def rectangle_rms_on_circle(p: Array, residuals: Array, c_rms: float) -> float:
     points off both shapes (a rope, a sign or a fence bar touching the support) set
     the extent of a rectangle, whose outline they lie on, not of a circle, and turned
     the rectangle of a square pier to its diagonal (draw 8 of the supports family: a
-    0.3 x 0.3 m pier with a tail of eight points 0.4 m long fitted its rectangle
+    0.3 x 0.3 m pier with a tail of six points 0.4 m long fitted its rectangle
     within 2.2 cm, a circle of 0.16 m radius within 1.5 cm).
     """
     on = np.abs(residuals) <= max(RING_INLIER_SIGMAS * c_rms, RING_INLIER_MIN_M)
