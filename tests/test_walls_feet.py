@@ -69,3 +69,29 @@ def test_slim_runs_drops_runs_at_the_foot_lower_than_an_opening() -> None:
     out = slim_runs(h, 3, foot)
     assert not out[0].any() and out[1].sum() == 8 and out[2].sum() == 8 and out[3].sum() == 2
     assert slim_runs(h, 4, foot)[2].sum() == 5
+
+
+def test_arch_wider_than_the_feet_window_is_one_opening() -> None:
+    """Church draw 2, east wall: the arch into the apse, 5 m wide and 12 m high, was two
+    openings either side of a 0.7 m pillar of wall that is not there.  Over its middle
+    every column's lowest covered cell is the head, and the foot (the lowest within
+    2.5 m) rose to it.  Where that foot stands more than 1.5 m above the lowest within
+    10 m, the wall stands over an opening, not on a slope."""
+    rng = np.random.default_rng(2)
+    arch = (3.5, 8.5, 4.5)
+    faces = [_face(rng, 0.0, arch), _face(rng, 1.0, arch)]
+    g = rng.uniform([-1.5, 0.0], [2.5, 12.0], (40000, 2))
+    g = g[(g[:, 0] < 0) | (g[:, 0] > 1.0) | ((g[:, 1] > arch[0]) & (g[:, 1] < arch[1]))]
+    ground = np.c_[g, rng.normal(0, 0.003, len(g))]
+    # the reveals: jambs and soffit across the wall's thickness
+    jamb = rng.uniform([0.0, 0.0], [1.0, arch[2]], (8000, 2))
+    reveals = [np.c_[jamb[:, 0], np.full(len(jamb), u), jamb[:, 1]] for u in arch[:2]]
+    head = rng.uniform([0.0, arch[0]], [1.0, arch[1]], (8000, 2))
+    reveals.append(np.c_[head, np.full(len(head), arch[2])])
+    r = segment_walls(np.vstack([*faces, ground, *reveals]))
+    w = max(r.walls, key=lambda x: x.n_points)
+    assert len(w.faces) == 2
+    assert len(w.openings) == 1
+    o = w.openings[0]
+    assert o.width_m == pytest.approx(arch[1] - arch[0], abs=0.05)
+    assert o.height_m == pytest.approx(arch[2], abs=0.05)

@@ -247,10 +247,14 @@ def _threshold(z0: float, feet: list[float], step: float) -> float:
     return max([z0, *up])
 
 
-def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5) -> NDArray[np.int64]:
+def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float = 10.0,
+          rise_m: float = 1.5) -> NDArray[np.int64]:  # fmt: skip
     """Lowest covered row per column, across empty columns from their neighbours, and
     the lowest within 2.5 m but for the ``stray_m`` (m) of columns lowest there (a
-    door or an occluder does not lift the foot, a few stray cells do not lower it).
+    door or an occluder does not lift the foot, a few stray cells do not lower it);
+    where that stands more than ``rise_m`` above the same within ``wide_m``, between
+    columns that do not within half of ``wide_m`` on either side, the latter (under an
+    arch or a door wider than 2.5 m less ``stray_m``; not at a wall's end).
 
     Returns below a face's foot (multipath ghosts of its points, dropped 0.2-1.5 m
     straight down, on its plane) cover a cell here and there: with the plain lowest
@@ -258,7 +262,10 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5) -> NDArray[np.
     2.5 m of wall, and the empty band between it and the true foot joined a door's hole
     (church draw 9's north door 13.7 m wide; draw 8's west door ran on to the wall's
     end and was lost).  A door up to 2.5 m less ``stray_m`` wide still leaves that much
-    of true foot in every window over it.
+    of true foot in every window over it.  Over the middle of a wider one (church draw
+    2's arch into the apse, 5 m wide) every column's lowest cell is the head: the foot
+    rose to it there, and the arch was two openings either side of a pillar of wall.
+    A rise of ``rise_m`` within ``wide_m`` is no slope of the ground.
     """
     from scipy import ndimage
 
@@ -271,7 +278,17 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5) -> NDArray[np.
     bot = np.interp(idx, idx[have], bot[have]).round().astype(np.int64)
     size = max(3, round(2.5 / c))
     rank = min(size - 1, round(stray_m / c))
-    return ndimage.rank_filter(bot, rank, size=size, mode="nearest")
+    near = ndimage.rank_filter(bot, rank, size=size, mode="nearest")
+    size = max(3, round(wide_m / c))
+    wide = ndimage.rank_filter(bot, min(size - 1, rank), size=size, mode="nearest")
+    low = near - wide <= rise_m / c
+    if low.all() or not low.any():
+        return near
+    # under an opening: low foot within half of wide_m on both sides (not a wall's end)
+    left = np.maximum.accumulate(np.where(low, idx, -size))
+    right = np.minimum.accumulate(np.where(low, idx, 2 * len(idx) + size)[::-1])[::-1]
+    between = (idx - left <= size // 2) & (right - idx <= size // 2)
+    return np.where(~low & between, wide, near)
 
 
 def _edge_points(ij: NDArray[np.int64], on_plane: NDArray[np.bool_], sl: tuple[slice, ...],
