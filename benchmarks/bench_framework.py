@@ -673,11 +673,10 @@ def frame_scores(sim, result, frame, match: list[int]) -> dict:
                 t = (pts - np.asarray(cu["centre"])) @ np.asarray(cu["axis"]) / cu["length"]
                 t0, t1 = np.clip(np.quantile(t, [0.005, 0.995]) + 0.5, 0.0, 1.0)
                 defl_seen.append(sh.deflection_m - o["deflection_m"] * (t1 - t0) ** 2)
-                # ... and over the part the measurement spans (its first to last slice)
+                # ... and over the part the measurement spans (its chord: the cuboid's
+                # ends, or the first and last located slices where they reach farther)
                 cub = result.beams[f - 1]
-                a = sh.centreline[:, 0]
-                half = 0.5 * (sh.measured_length_m - (a.max() - a.min()))
-                ends = cub.centre + np.outer([a.min() - half, a.max() + half], cub.axis)
+                ends = cub.centre + np.outer(sh.chord_m, cub.axis)
                 u = (ends - np.asarray(cu["centre"])) @ np.asarray(cu["axis"]) / cu["length"]
                 u0, u1 = np.clip(np.sort(u) + 0.5, 0.0, 1.0)
                 defl_span.append(sh.deflection_m - o["deflection_m"] * (u1 - u0) ** 2)

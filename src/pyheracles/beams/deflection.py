@@ -12,7 +12,12 @@ conservator inspects, and both are read from the points along the beam:
    centre line's displacement per slice (one unknown constant per face takes
    up a wrong width or height of the cuboid), fitted by a bow (second-degree
    curve) along the axis; the **deflection** is the bow's largest distance
-   from the chord between the beam's ends, ``|c| L^2 / 4``;
+   from the chord between the beam's ends, ``|c| L^2 / 4``, ``L`` the
+   cuboid's length or, when the faces are followed past its ends, the
+   measured length (a bow read over part of a member is its bow all the
+   same: the faces' first and last located slices often stop short of the
+   member's ends, where a crossing member or the boarding hides them, and the
+   sag over that shorter chord is smaller by the square of its share);
 3. the section's rotation per slice (from every face's tilt, again with one
    constant per face) is fitted by a straight line along the axis; the
    **twist** is its end-to-end change, degrees, right-handed about the axis;
@@ -131,8 +136,8 @@ class MemberShape:
     Attributes
     ----------
     deflection_m
-        Largest distance of the fitted bow from the chord between the ends of
-        the measured length, metres (NaN: not measurable, see ``note``; a beam
+        Largest distance of the fitted bow from the chord between the
+        member's ends (``chord_m``), metres (NaN: not measurable, see ``note``; a beam
         seen only on one face, or on two opposite faces, bows unseen in their
         plane).
     direction
@@ -159,8 +164,12 @@ class MemberShape:
         ``(k, 3)``: position along the axis from the centre, displacement
         along the width and along the height direction, metres, per slice.
     measured_length_m
-        Length from the first to the last located slice, metres: the chord of
-        the deflection and the span of the twist.
+        Length from the first to the last located slice, metres: the span of
+        the twist.
+    chord_m
+        ``(2,)`` the ends of the deflection's chord along the axis from the
+        cuboid's centre, metres: the cuboid's ends, or the located slices'
+        where they reach farther.
     """
 
     deflection_m: float
@@ -174,6 +183,7 @@ class MemberShape:
     note: str = ""
     centreline: Array = field(default_factory=lambda: np.zeros((0, 3)))
     measured_length_m: float = float("nan")
+    chord_m: Array = field(default_factory=lambda: np.full(2, np.nan))
 
 
 @dataclass(frozen=True)
@@ -468,7 +478,14 @@ def member_shape(
     coverage = L / max(cub.length, p.slice_m)
     cu, cv = float(est["cu"][1]), float(est["cv"][1])
     bow = np.array([cu, cv])
-    deflection = float(np.linalg.norm(bow) * L**2 / 4)
+    half = 0.5 * p.slice_m
+    chord = np.array(
+        [
+            min(float(t_loc[0]) - half, -0.5 * cub.length),
+            max(float(t_loc[-1]) + half, 0.5 * cub.length),
+        ]
+    )
+    deflection = float(np.linalg.norm(bow) * np.ptp(chord) ** 2 / 4)
     direction = np.zeros(3)
     if deflection > 0:
         direction = -(cu * cub.axes[:, 1] + cv * cub.axes[:, 2]) / np.linalg.norm(bow)
@@ -491,6 +508,7 @@ def member_shape(
         deflection, note = float("nan"), f"located slices span {coverage:.0%} of the length"
     return MemberShape(
         measured_length_m=L,
+        chord_m=chord,
         deflection_m=deflection,
         direction=direction,
         twist_deg=twist,

@@ -52,6 +52,11 @@ __all__ = [
 #: Share of the section across a hidden face whose strip along that face's edges
 #: does not lengthen a beam (the floor beside a timber lying on it).
 HIDDEN_EDGE_SHARE = 0.25
+#: Past a beam's end a slice holding one point only does not continue the beam's
+#: faces (scattered mixed pixels along the faces' planes bridged the gaps one by one,
+#: down through a floor), unless a tenth of the faces' density over the last stretch
+#: inside the end (``max_gap / 2``) is at most one point a slice (a sparse far end).
+CONTINUATION_DENSITY_SHARE = 0.1
 
 
 def assign_to_cuboids(
@@ -113,12 +118,16 @@ def extend_along_axis(
     sparse ends of long members often give no straight facet of their own;
     their points lie on the beam's extended faces.  The cuboid grows, slice by
     slice (5 cm, or 5 point spacings), over the points (not claimed by another
-    beam's facets) within ``tol`` of its surface extended, while they are
-    contiguous (empty over at most ``max_gap / 2``, the size of a crossing
-    beam, or 10 point spacings).  Only the faces the member is seen on count (at least a
-    tenth of its own points lie on them), and points along the edges of a
-    hidden face are ignored: the floor beside a timber lying on it is in the
-    plane of the timber's hidden underside.  The cross-section is kept.  The
+    beam's facets, and in no wide surface) within ``tol`` of its surface
+    extended, while they are contiguous (empty over at most ``max_gap / 2``,
+    the size of a crossing beam, or 10 point spacings); a slice holding a
+    single point is empty unless the faces are that sparse at the end
+    (``CONTINUATION_DENSITY_SHARE``): a few mixed pixels along the faces'
+    planes are no faces going on, nor is a floor crossing them.  Only the
+    faces the member is seen on count (at least a tenth of its own points lie
+    on them), and points along the edges of a hidden face are ignored: the
+    floor beside a timber lying on it is in the plane of the timber's hidden
+    underside.  The cross-section is kept.  The
     test is on the positions only: normals of the few points of a sparse far
     end are too noisy to say which face they lie on.  One round looks
     ``max_gap`` past each end; rounds are repeated (at most ``max_rounds``)
@@ -182,9 +191,15 @@ def extend_once(
         if len(beyond) >= 20:
             n_sl = int(np.ceil((half + max_gap - (half - tol)) / sl)) + 1
             k_on = np.bincount(((beyond - (half - tol)) / sl).astype(np.int64), minlength=n_sl)
+            # a slice holding a single point (a mixed pixel) does not go on with the
+            # faces, unless a tenth of their density over the last stretch inside the
+            # end is one point a slice or less (a sparse far end)
+            near = int(np.count_nonzero(on & (a > half - step) & (a <= half - tol)))
+            share = CONTINUATION_DENSITY_SHARE * near * sl / max(step - tol, sl)
+            least = min(2.0, max(1.0, share))
             last, empty = -1, 0.0
             for i in range(n_sl):
-                if k_on[i] == 0:
+                if k_on[i] < least:
                     empty += sl
                     if empty > step:
                         break
@@ -499,6 +514,11 @@ def segment_beams(
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
         claimed[f.index] = g
+    # the wide surfaces (floor, walls, boarding and their strips) are no beam's
+    # faces: a beam's faces do not go on through the floor it stands on
+    claimed[wide_pts] = -1
+    for idx in barrier_idx:
+        claimed[idx] = -1
     index = BoxIndex(arr)  # box queries of every cuboid, on the kept points
     cuboids = [
         extend_along_axis(
