@@ -49,6 +49,21 @@ def test_a_pier_seen_on_one_face_at_its_section_gets_the_box_of_its_two_faces() 
     assert abs(row["x"] - 0.28) <= 0.02 and abs(row["y"] - 0.275) <= 0.02, row
 
 
+def test_a_side_face_seen_at_a_grazing_angle_still_sets_the_depth() -> None:
+    """Draw 7 again: the side face held a tenth of the points and showed 0.33 m of the
+    pier's depth; the least-squares box kept the front face alone (0.53 x 0.005 m) at a
+    smaller RMS than any box holding both faces."""
+    rng = np.random.default_rng(10)
+    front = _face(rng, np.array([0.0, 0.0, 0.0]), np.array([0.0, 0.55, 0.0]),
+                  np.array([0.0, 0.0, 3.0]), 3000)  # fmt: skip
+    side = _face(rng, np.array([0.0, 0.55, 0.0]), np.array([0.33, 0.55, 0.0]),
+                 np.array([0.0, 0.55, 3.0]), 330)  # fmt: skip
+    pts = np.vstack([front, side])
+    row = describe(pts, np.abs(pts[:, 0]), _section(pts), TOL)
+    assert abs(row["box_length_m"] - 0.55) <= 0.02, row
+    assert abs(row["box_width_m"] - 0.33) <= 0.02, row
+
+
 def test_a_chair_touching_the_pier_does_not_widen_its_box() -> None:
     rng = np.random.default_rng(8)
     pts, _ = _l_pier(rng)

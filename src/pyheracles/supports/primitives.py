@@ -267,6 +267,25 @@ def outside_share(pts: Array, box: BoxFit, margin: float) -> float:
     return float(np.mean(out.any(axis=1))) if len(pts) else 0.0
 
 
+def prism_box(prism: Array, sh: dict, tol: float) -> BoxFit | FailedFit:
+    """The box of a pier's prism points: :func:`pier_box`, or the box along the
+    section's direction (:func:`section_box`) when that holds more of them.
+
+    The least-squares box of a face seen fully and a side face seen at a grazing angle
+    (a tenth of the points) is the thin box of the first face, with the side's points
+    as outliers and a smaller RMS than any box holding both faces (supports draw 7: a
+    0.53 x 0.005 m box of a pier whose side face showed 0.33 m of its depth).
+    """
+    box = pier_box(prism, sh, tol)
+    alt = section_box(prism, float(sh["angle"]))
+    if not alt:
+        return box
+    if not box:
+        return alt
+    margin = 2.0 * tol
+    return alt if outside_share(prism, alt, margin) < outside_share(prism, box, margin) else box
+
+
 def _pier_fields(pts: Array, box: BoxFit, tol: float, z_min: float) -> dict[str, float]:
     """Objects-table fields of a pier from its box: centre, sides, axis, RMS, bands."""
     vert = int(np.argmax(np.abs(box.axes[2])))
@@ -316,8 +335,8 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
         ``capital_bottom_m`` from the reach of their layers beyond the fitted box.
         A pier's box is that of the faces its section saw, or, when more than
         :data:`PRISM_OUTSIDE_SHARE` of the points of its shaft band that outline a
-        prism (:func:`prism_points`) lie outside it, the box of that prism (a face
-        shadowed at the section but seen above or below it).
+        prism (:func:`prism_points`) lie outside it, the box of that prism
+        (:func:`prism_box`; a face shadowed at the section but seen above or below it).
         A column's row also holds ``cylinder_radius_m``, the radius of the cylinder
         of the section's shaft points (the detection's checks of a candidate: does its
         cylinder agree with its section circle, is it thinner than the columns that
@@ -405,7 +424,7 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
             band = pts[(h > lo) & (h < hi)]
             prism = band[prism_points(band, max(0.02, 2.0 * tol))]
             if len(prism) >= 20 and outside_share(prism, box, 2.0 * tol) > PRISM_OUTSIDE_SHARE:
-                wider = pier_box(prism, sh, tol)
+                wider = prism_box(prism, sh, tol)
                 if wider:
                     row.update(_pier_fields(pts, wider, tol, row["z_min"]))
     if np.isnan(row["x"]):
