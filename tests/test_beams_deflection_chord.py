@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from member_points import surface_points
 from pyheracles.beams import BeamCuboid
 from pyheracles.beams.deflection import member_shape
 from pyheracles.synthetic.families.roof_frame import member_between
@@ -27,25 +28,11 @@ def _bent_rafter(sag: float):
     return replace(m, deflection_m=sag)
 
 
-def _surface_points(m, n: int, rng: np.random.Generator) -> np.ndarray:
-    tri = m.triangles()
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    k = rng.choice(len(tri), n, p=area / area.sum())
-    r1, r2 = rng.random(n), rng.random(n)
-    s = np.sqrt(r1)
-    pts = (
-        (1 - s)[:, None] * tri[k, 0]
-        + (s * (1 - r2))[:, None] * tri[k, 1]
-        + (s * r2)[:, None] * tri[k, 2]
-    )
-    return pts + rng.normal(0.0, 0.002, pts.shape)
-
-
 @pytest.mark.parametrize("sag", [0.01, 0.025])
 def test_the_sag_is_given_over_the_member_when_its_ends_are_too_sparse_to_locate(sag):
     rng = np.random.default_rng(4)
     m = _bent_rafter(sag)
-    pts = _surface_points(m, 40_000, rng)
+    pts = surface_points(m, 40_000, 0.002, rng)
     t = (pts - m.centre) @ m.axis
     # the last 35 cm at each end are seen by a few points only (under the
     # boarding, in the wall): too few per slice to locate a face

@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from member_points import surface_points
 from pyheracles.beams import BeamCuboid, BeamParams, BeamResult
 from pyheracles.beams.deflection import ShapeParams, member_shape, member_shapes
 from pyheracles.beams.frame import FrameParams, analyse_frame
@@ -26,21 +27,6 @@ from pyheracles.synthetic.families.roof_truth import find_joints as true_joints
 Z = np.array([0.0, 0.0, 1.0])
 
 
-def _surface_points(m: Member, n: int, noise: float, rng: np.random.Generator) -> np.ndarray:
-    """Points uniform on the (bent, twisted) lateral and end faces of a member, with noise."""
-    tri = m.triangles()
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    k = rng.choice(len(tri), n, p=area / area.sum())
-    r1, r2 = rng.random(n), rng.random(n)
-    s = np.sqrt(r1)
-    pts = (
-        (1 - s)[:, None] * tri[k, 0]
-        + (s * (1 - r2))[:, None] * tri[k, 1]
-        + (s * r2)[:, None] * tri[k, 2]
-    )
-    return pts + rng.normal(0.0, noise, pts.shape)
-
-
 def _cuboid(m: Member) -> BeamCuboid:
     """The straight cuboid of a member's chord (what a fit of a bent beam gives)."""
     axes = np.column_stack([m.axis, m.side, m.up])
@@ -57,7 +43,7 @@ def _rafter(deflection: float = 0.0, twist: float = 0.0) -> Member:
 def test_deflection_and_twist_of_a_bent_beam(sag, twist):
     rng = np.random.default_rng(1)
     m = _rafter(sag, twist)
-    pts = _surface_points(m, 20_000, 0.003, rng)
+    pts = surface_points(m, 20_000, 0.003, rng)
     cub = _cuboid(m)
     own = np.abs(cub.signed_distance(pts)) < 0.01  # the straight cuboid's labels
     if sag >= 0.02:
@@ -76,7 +62,7 @@ def test_deflection_and_twist_of_a_bent_beam(sag, twist):
 def test_deflection_of_a_partly_seen_beam_and_too_few_points():
     rng = np.random.default_rng(2)
     m = _rafter(0.02)
-    pts = _surface_points(m, 20_000, 0.003, rng)
+    pts = surface_points(m, 20_000, 0.003, rng)
     local = (pts - m.centre) @ m.side
     seen = local < 0.0  # the +side face and half the others hidden
     cub = _cuboid(m)
@@ -187,7 +173,7 @@ def test_analyse_frame_and_json():
     loose = member_between("l", "tie", [3, -1, 0.05], [3, 1, 0.05], 0.1, 0.1, Z)
     ladder = member_between("ladder", "x", [0.6, 1.2, 0.2], [0.12, 0.0, 2.4], 0.06, 0.05, Z)
     members = [bent, post, brace, loose, ladder]
-    pts = [_surface_points(m, 8000, 0.002, rng) for m in members]
+    pts = [surface_points(m, 8000, 0.002, rng) for m in members]
     xyz = np.vstack(pts)
     labels = np.repeat(np.arange(1, 6), [len(p) for p in pts]).astype(np.int32)
     cubs = tuple(_cuboid(m) for m in members)

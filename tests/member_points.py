@@ -1,0 +1,22 @@
+"""Points sampled on a generated timber member's faces, shared by the beams tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def surface_points(m, n: int, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points uniform by area on the (bent, twisted) lateral and end faces of a
+    member (:class:`pyheracles.synthetic` member with ``triangles()``), with Gaussian
+    noise of ``noise`` metres."""
+    tri = m.triangles()
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    k = rng.choice(len(tri), n, p=area / area.sum())
+    r1, r2 = rng.random(n), rng.random(n)
+    s = np.sqrt(r1)
+    pts = (
+        (1 - s)[:, None] * tri[k, 0]
+        + (s * (1 - r2))[:, None] * tri[k, 1]
+        + (s * r2)[:, None] * tri[k, 2]
+    )
+    return pts + rng.normal(0.0, noise, pts.shape)
