@@ -171,10 +171,16 @@ def watch_interrupts() -> Iterator[Callable[[], bool]]:
             return
         raise KeyboardInterrupt
 
+    timers: list[threading.Timer] = []
+
     def later() -> None:
         # From a second thread, once the hook has returned: the main thread's next
-        # bytecode outside the callback runs the handler, which raises there.
-        threading.Timer(0.02, _thread.interrupt_main).start()
+        # bytecode outside the callback runs the handler, which raises there.  Cancelled
+        # when the watch ends (a run that ended meanwhile is not interrupted after it).
+        timer = threading.Timer(0.02, _thread.interrupt_main)
+        timer.daemon = True
+        timers.append(timer)
+        timer.start()
 
     def redeliver(exc_type: type[BaseException] | None) -> bool:
         if exc_type is None or not issubclass(exc_type, KeyboardInterrupt):
@@ -211,6 +217,8 @@ def watch_interrupts() -> Iterator[Callable[[], bool]]:
     try:
         yield lambda: hit[0]
     finally:
+        for timer in timers:
+            timer.cancel()
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
             sys.unraisablehook, sys.excepthook = previous_unraisable, previous_excepthook
