@@ -416,8 +416,8 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
         if box:
             row.update(_pier_fields(pts, box, tol, row["z_min"]))
             # the section may have seen one face of a pier whose other faces show above
-            # or below it: the box of the prism its shaft band outlines, when that band
-            # lies mostly outside the box of the section's faces
+            # or below it: the box of the prism its shaft band outlines, when more than
+            # PRISM_OUTSIDE_SHARE of that prism lies outside the box of the section's faces
             lo = row["base_top_m"] if np.isfinite(row["base_top_m"]) else 0.0
             hi = row["capital_bottom_m"] if np.isfinite(row["capital_bottom_m"]) else np.inf
             h = pts[:, 2] - row["z_min"]
