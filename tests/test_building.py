@@ -377,7 +377,14 @@ def test_a_primitive_must_lie_within_its_points(monkeypatch: pytest.MonkeyPatch,
         box = fit_oriented_box(points, **kwargs)
         return replace(box, centre=box.centre + [100.0, 0.0, 0.0])
 
+    section_box = sup.section_box
+
+    def far_section_box(points, angle):  # the box along the section goes wrong too
+        box = section_box(points, angle)
+        return replace(box, centre=box.centre + [100.0, 0.0, 0.0])
+
     monkeypatch.setattr(sup, "fit_oriented_box", far_box)
+    monkeypatch.setattr(sup, "section_box", far_section_box)
     scene = scenes["pavilion"]
     seg, found, _, _ = segment_building(scene.xyz)
     assert set(found.objects["class"]) == {"column"}  # all 10 piers rejected
