@@ -226,6 +226,9 @@ def detect_supports_checked(
             continue
         cidx, crho, cpts = kept
         row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
+        off = row.pop("off_shaft", None)  # a bench or a chair touching a column
+        if off is not None and off.any():
+            cidx, crho, cpts = cidx[~off], crho[~off], cpts[~off]
         if sh["class"] != "pier" and not (
             abs(row.get("cylinder_radius_m", row["radius_m"]) - sh["radius"])
             <= max(0.05, 0.3 * sh["radius"])

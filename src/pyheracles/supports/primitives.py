@@ -29,6 +29,7 @@ from pyheracles.geometry.fitting import (
     fit_cylinder,
     fit_oriented_box,
 )
+from pyheracles.supports.clutter import off_shaft
 from pyheracles.supports.core import Array, Scales
 
 
@@ -337,6 +338,9 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
         :data:`PRISM_OUTSIDE_SHARE` of the points of its shaft band that outline a
         prism (:func:`prism_points`) lie outside it, the box of that prism
         (:func:`prism_box`; a face shadowed at the section but seen above or below it).
+        A free column's row holds ``off_shaft``, a mask of its points that are clutter
+        touching it (:func:`~pyheracles.supports.clutter.off_shaft`; for the detection,
+        not a column of the objects table).
         A column's row also holds ``cylinder_radius_m``, the radius of the cylinder
         of the section's shaft points (the detection's checks of a candidate: does its
         cylinder agree with its section circle, is it thinner than the columns that
@@ -411,6 +415,8 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
             row.update(x=float(point[0]), y=float(point[1]), axis_x=float(axis[0]),
                        axis_y=float(axis[1]), axis_z=float(axis[2]))  # fmt: skip
             row.update(column_shape(pts, point, axis, radius, tol, z_ref=z_ref))
+            if sh["class"] == "column":  # an engaged column's wall lies outside it too
+                row["off_shaft"] = off_shaft(pts, point, axis, row, tol)
     else:
         box = pier_box(fit_pts, sh, tol)
         if box:
