@@ -1,11 +1,11 @@
-"""Per-layer medians and quantiles of a support's profile equal numpy's, layer by layer."""
+"""Per-group medians and quantiles (a support's layers, a beam's slices) equal numpy's."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pyheracles.supports.primitives import layer_medians, layer_quantiles
+from pyheracles.geometry.groups import group_medians, group_quantiles
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -20,7 +20,7 @@ def test_layer_statistics_equal_numpy_per_layer(seed: int) -> None:
         if trial % 25 == 0:
             values[rng.integers(0, size)] = np.nan
         layer = rng.integers(0, n, size)
-        med, q90 = layer_medians(values, layer, n), layer_quantiles(values, layer, n, 0.9)
+        med, q90 = group_medians(values, layer, n), group_quantiles(values, layer, n, 0.9)
         for i in range(n):
             v = values[layer == i]
             if len(v) == 0:

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from pyheracles.beams.model import BeamCuboid, box_distance
 from pyheracles.errors import InputError
+from pyheracles.geometry.groups import group_medians
 from pyheracles.geometry.sections import sort_order
 
 __all__ = [
@@ -248,13 +249,13 @@ def _slices(
     along = np.where(f < 2, v[use], u[use])
     group = k[use] * 4 + f
     n_g = 4 * n_s
-    med = _group_median(q, group, n_g)
+    med = group_medians(q, group, n_g)
     dev = np.abs(q - med[group])
-    mad = _group_median(dev, group, n_g)
+    mad = group_medians(dev, group, n_g)
     keep = dev <= np.maximum(3.0 * mad[group], 0.003)
     q, along, group = q[keep], along[keep], group[keep]
     count = np.bincount(group, minlength=n_g)
-    offset = _group_median(q, group, n_g)
+    offset = group_medians(q, group, n_g)
     offset[count < p.min_face_points] = np.nan
     # tilt: least-squares slope of q over the coordinate along the face
     n = np.maximum(count, 1)
@@ -279,27 +280,6 @@ def _slices(
         offset[:, 2:] += corr[1][:, None]
         tilt += corr[2][:, None]
     return _Slices(t=t_mid, offset=offset, tilt=tilt, count=count)
-
-
-def _group_median(values: Array, group: NDArray[np.int64], n_groups: int) -> Array:
-    """Median of ``values`` per group (NaN for empty groups), vectorised."""
-    out = np.full(n_groups, np.nan)
-    if len(values) == 0:
-        return out
-    # by value, then stably by group: the order of np.lexsort((values, group)),
-    # 4x faster (a stable sort of small integers is a radix sort)
-    by_value = np.argsort(values)
-    g_sorted = group[by_value]
-    key = g_sorted.astype(np.uint16) if n_groups <= 1 << 16 else g_sorted
-    order = by_value[np.argsort(key, kind="stable")]
-    g, v = group[order], values[order]
-    start = np.searchsorted(g, np.arange(n_groups))
-    count = np.bincount(g, minlength=n_groups)
-    has = count > 0
-    lo = start[has] + (count[has] - 1) // 2
-    hi = start[has] + count[has] // 2
-    out[has] = 0.5 * (v[lo] + v[hi])
-    return out
 
 
 def _contiguous(

@@ -20,7 +20,6 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from pyheracles.geometry.fitting import (
     BoxFit,
@@ -29,6 +28,7 @@ from pyheracles.geometry.fitting import (
     fit_cylinder,
     fit_oriented_box,
 )
+from pyheracles.geometry.groups import group_medians, group_quantiles
 from pyheracles.supports.clutter import off_shaft
 from pyheracles.supports.core import Array, Scales
 
@@ -456,63 +456,6 @@ def lean(axis: Array, height: float) -> dict[str, float]:
     return {"tilt_deg": tilt, "lean_m": off, "lean_azimuth_deg": az}
 
 
-def _layer_sorted(
-    values: Array, layer: NDArray[np.intp], n: int
-) -> tuple[Array, Array, Array, NDArray[np.bool_]]:
-    """``values`` sorted by layer, then by value; each layer's start and count, and
-    whether it holds a NaN (numpy's median and quantile are NaN there)."""
-    order = np.lexsort((values, layer))
-    count = np.bincount(layer, minlength=n)
-    start = np.concatenate(([0], np.cumsum(count)[:-1]))
-    with_nan = np.zeros(n, dtype=bool)
-    with_nan[layer[np.isnan(values)]] = True
-    return values[order], start, count, with_nan
-
-
-def layer_medians(values: Array, layer: NDArray[np.intp], n: int) -> Array:
-    """Median of ``values`` in each of ``n`` layers (``layer``: 0 .. n-1; NaN if empty).
-
-    The same numbers as ``np.median`` per layer (the middle value, or the mean of the
-    two middle values; NaN where a layer holds a NaN), in one sort instead of a mask
-    and a median per layer: a 13 m column cut in 5 cm layers has 260 of them, and a
-    layer loop over its points was a tenth of the supports step.
-    """
-    v, start, count, with_nan = _layer_sorted(values, layer, n)
-    out = np.full(n, np.nan)
-    has = count > 0
-    lo = start[has] + (count[has] - 1) // 2
-    hi = start[has] + count[has] // 2
-    out[has] = (v[lo] + v[hi]) / 2.0
-    out[with_nan] = np.nan
-    return out
-
-
-def layer_quantiles(values: Array, layer: NDArray[np.intp], n: int, q: float) -> Array:
-    """The ``q`` quantile of ``values`` in each of ``n`` layers (NaN if empty).
-
-    numpy's default (linear) quantile, term for term: the order statistics either side
-    of ``(count - 1) q`` and numpy's interpolation between them (from the upper one
-    when the weight is at least one half), so that comparisons with a threshold come
-    out as with ``np.quantile`` per layer; a layer holding a NaN gives NaN as there.
-    """
-    v, start, count, with_nan = _layer_sorted(values, layer, n)
-    out = np.full(n, np.nan)
-    has = count > 0
-    c = count[has]
-    virtual = (c - 1) * q
-    prev = np.floor(virtual).astype(np.intp)
-    nxt = np.minimum(prev + 1, c - 1)
-    gamma = virtual - prev
-    a, b = v[start[has] + prev], v[start[has] + nxt]
-    diff = b - a
-    res = a + diff * gamma
-    upper = gamma >= 0.5
-    res[upper] = (b - diff * (1 - gamma))[upper]
-    out[has] = res
-    out[with_nan] = np.nan
-    return out
-
-
 def part_bands(
     h: Array, reach: Array, ref: Array, noise: float, *, layer_m: float = 0.02,
     max_share: float = 0.4, min_points: int = 5,
@@ -537,7 +480,7 @@ def part_bands(
     over = reach - ref
     thr = max(3.0 * noise, 0.01)
     seen = np.bincount(k, minlength=n) >= min_points
-    wide = seen & (layer_quantiles(over, k, n, 0.9) > thr)
+    wide = seen & (group_quantiles(over, k, n, 0.9) > thr)
     lim = max(1, int(max_share * n))
 
     def run(idx: range) -> int:  # wide layers from one end (empty layers carry on)
@@ -615,7 +558,7 @@ def column_shape(
         full = np.bincount(kk, minlength=nl) >= 5  # layers of 5 points or more
         if full.sum() < 2:
             return np.array([float(np.median(ds)), 0.0])
-        hm, rm = layer_medians(hs, kk, nl)[full], layer_medians(ds, kk, nl)[full]
+        hm, rm = group_medians(hs, kk, nl)[full], group_medians(ds, kk, nl)[full]
         return np.polyfit(hm, rm, 1)[::-1]
 
     coef = line(0.0, length)
