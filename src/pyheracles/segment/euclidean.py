@@ -6,7 +6,9 @@ decreasing cluster size, 0 for points in clusters smaller than ``min_points``:
 * :func:`euclidean_clusters` is exact: two points are in one cluster when a
   chain of points links them with every step ``<= distance_m`` (single
   linkage, as PCL's ``EuclideanClusterExtraction`` and MATLAB's
-  ``pcsegdist``).  KD-tree pairs + ``scipy.sparse.csgraph`` components.
+  ``pcsegdist``).  A compiled grid of cells joined by union-find
+  (:mod:`pyheracles.segment.linkage_kernels`); KD-tree pairs +
+  ``scipy.sparse.csgraph`` components on grids too large for its keys.
 * :func:`voxel_clusters` links occupied voxels that touch (26-neighbourhood):
   linear time and memory, for clouds of tens of millions of points.  Two
   points in one cluster are linked by steps of at most ``2 * sqrt(3) *
@@ -22,8 +24,9 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from pyheracles.errors import InputError
+from pyheracles.segment.linkage_kernels import cell_components, forward_rows
 
-__all__ = ["euclidean_clusters", "relabel_by_size", "voxel_clusters"]
+__all__ = ["euclidean_clusters", "grid_components", "relabel_by_size", "voxel_clusters"]
 
 
 def _check(xyz: NDArray[np.float64], distance: float, min_points: int) -> NDArray[np.float64]:
@@ -68,7 +71,8 @@ def euclidean_clusters(
     min_points
         Clusters with fewer points are labelled 0 (noise).
     tree
-        A KD-tree already built on ``xyz`` (shared to avoid rebuilding it).
+        A KD-tree already built on ``xyz``, used only where the cell grid is too large
+        for its keys (then shared to avoid rebuilding it).
 
     Returns
     -------
@@ -86,13 +90,55 @@ def euclidean_clusters(
     n = len(pts)
     if n == 0:
         return np.zeros(0, dtype=np.int32)
-    kd = tree if tree is not None else cKDTree(pts)
-    pairs = kd.query_pairs(distance_m, output_type="ndarray")
-    graph = coo_matrix(
-        (np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n)
-    )
-    _, comp = connected_components(graph, directed=False)
+    comp = grid_components(pts, distance_m)
+    if comp is None:  # a grid too large for 63-bit cell keys: list the pairs instead
+        kd = tree if tree is not None else cKDTree(pts)
+        pairs = kd.query_pairs(distance_m, output_type="ndarray")
+        graph = coo_matrix(
+            (np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n)
+        )
+        _, comp = connected_components(graph, directed=False)
     return relabel_by_size(comp, min_points)
+
+
+def grid_components(pts: NDArray[np.float64], distance_m: float) -> NDArray[np.int64] | None:
+    """Component of each point in the graph of pairs within ``distance_m``, numbered
+    0, 1, ... in the order of each component's first point (scipy's
+    ``connected_components`` numbering), from the compiled cell grid
+    (:mod:`pyheracles.segment.linkage_kernels`); None when the grid's cell keys would
+    not fit in 63 bits (an extent of more than about 10**6 cells along each of three
+    axes) or a coordinate is not finite."""
+    n, dim = pts.shape
+    # a hair under d / sqrt(D): two points of one cell are within d despite rounding
+    cell = distance_m / np.sqrt(dim) * (1.0 - 1e-9)
+    lo = pts.min(axis=0)
+    if not np.isfinite(lo).all():
+        return None  # NaN or infinite coordinates: the pair list's own handling
+    ijk = ((pts - lo) / cell).astype(np.int64) + 2  # 2 empty cells before the first
+    dims = ijk.max(axis=0) + 3  # and after the last: no neighbour wraps to another row
+    if float(np.prod(dims.astype(np.float64))) >= 2.0**62:
+        return None
+    strides = np.ones(dim, dtype=np.int64)
+    for k in range(dim - 2, -1, -1):
+        strides[k] = strides[k + 1] * dims[k + 1]
+    keys = ijk @ strides
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    first = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1]])
+    starts = np.r_[first, n].astype(np.int64)
+    rows = forward_rows(dim)  # (R, dim + 1): offsets of the other axes, first, last
+    row_steps = (rows[:, : dim - 1] @ strides[:-1])[:, None] + rows[:, dim - 1 :]
+    roots = cell_components(
+        np.ascontiguousarray(pts[order]), starts, sorted_keys[first], row_steps,
+        float(distance_m) ** 2,
+    )  # fmt: skip
+    root_of_point = np.empty(n, dtype=np.int64)
+    root_of_point[order] = np.repeat(roots, np.diff(starts))
+    # number the components by their first point, as a breadth-first search from point 0
+    found, first_point, inverse = np.unique(root_of_point, return_index=True, return_inverse=True)
+    rank = np.empty(len(found), dtype=np.int64)
+    rank[np.argsort(first_point, kind="stable")] = np.arange(len(found))
+    return rank[inverse]
 
 
 # The 13 "forward" offsets of the 26-neighbourhood (the other 13 are their negatives).
