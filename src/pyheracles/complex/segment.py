@@ -128,7 +128,8 @@ def _segment_layer(
             solid=None if site.pass_through is None else ~site.pass_through[cand],
         )
         if rp.crown_rise_m is not None and keep.sum() >= 3:
-            keep[np.flatnonzero(keep)[_crowns(site, cand[keep], buffered[k], rp)]] = False
+            crown = _crowns(site, cand[keep], cand_dist[keep] > 0.0, buffered[k], rp)
+            keep[np.flatnonzero(keep)[crown]] = False
         # points of the buffer ring nearer to another layer's feature are left to it
         # (they linked the object's clusters all the same)
         keep &= ~site.elsewhere[name][cand]
@@ -164,9 +165,15 @@ def _segment_layer(
 
 
 def _crowns(
-    site: _Site, members: NDArray[np.int64], buffered: Any, rp: ComplexParams
+    site: _Site,
+    members: NDArray[np.int64],
+    outside: NDArray[np.bool_],
+    buffered: Any,
+    rp: ComplexParams,
 ) -> NDArray[np.bool_]:
     """Mask over ``members`` of a tree crown's points (see :func:`crown_points`).
+
+    ``outside`` (over ``members``) marks those outside the polygon, in its buffer ring.
 
     The points beside them that count are untaken, outside every polygon and
     beyond the object's buffer (``buffered``, prepared): its eaves and facades
@@ -180,7 +187,7 @@ def _crowns(
     off = off[~shapely.contains_xy(buffered, site.xyz[off, 0], site.xyz[off, 1])]
     return crown_points(
         site.xyz, members, off, radius, float(rp.crown_rise_m),  # type: ignore[arg-type]
-        rp.crown_share,
+        rp.crown_share, outside=outside,
     )  # fmt: skip
 
 
