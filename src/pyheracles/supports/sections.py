@@ -28,6 +28,7 @@ from pyheracles.supports.rings import (
     rings_from_arcs,
     twin_rings,
 )
+from pyheracles.supports.steps import back_on_wall_face, line_tolerance, side_on_line
 
 
 def island_kind(length: Array, width: Array, params: SupportParams) -> NDArray[np.str_]:
@@ -403,7 +404,13 @@ def face_and_sides(
     (:data:`SPARSE_RECT_RMS_M` plus 2 % of its length).  A face whose line runs on past
     an end (:func:`face_runs_on`) is a piece of a longer wall face, not a pier's, and so
     is a face on the line of a long wall's face (:func:`long_wall_on_line`), or one whose
-    side runs on a long wall's line (the inner corner of two walls).  The
+    side runs on a long wall's line (the inner corner of two walls), or whose back lies
+    on a wall face running on past it
+    (:func:`~pyheracles.supports.steps.back_on_wall_face`).  Each side is taken on its
+    own line (:func:`~pyheracles.supports.steps.side_on_line`, within
+    :func:`~pyheracles.supports.steps.line_tolerance`): the faces of the wall an anta
+    ends, stepped back 10 cm from its sides, neither belong to them nor run on from
+    them (draw 8).  The
     wall-piece tests of the supports (:func:`~pyheracles.supports.detect.wall_pieces`)
     then judge it as any pier island (the piece of a wall between two doors has the wall
     in line with it).
@@ -438,26 +445,33 @@ def face_and_sides(
         q = xy[pool] - c
         t, s = q @ u, q @ nrm
         edge = max(0.02, 3.0 * rms)  # off the face's own points
+        off = line_tolerance(rms)
         near = (t >= ext[0] - tol) & (t <= ext[1] + tol) & (np.abs(s) > edge)
         near &= np.abs(s) <= params.max_support_size_m
         for side in (1.0, -1.0):
             on = near & (side * s > 0)
-            ends = [on & (np.abs(t - e) <= tol) for e in ext]
+            # each side on its own line: a wall face stepped back from it (the wall
+            # an anta ends) is not the side, nor does it run on from it
+            sides = [side_on_line(t, on & (np.abs(t - e) <= tol), e, off) for e in ext]
+            ends = [e for e, _ in sides]
             if min(np.count_nonzero(e) for e in ends) < FACE_END_POINTS:
                 continue
             depths = [float(np.max(side * s[e])) for e in ends]
             if min(depths) < params.min_support_size_m:
                 continue
             back = side * nrm  # the side faces run back from the face's ends
-            if any(
-                face_runs_on(
-                    xy, pool[e], c + u * x, back, np.array([0.0, d]), tol, tol, both_ends=False
+            if (
+                any(
+                    face_runs_on(
+                        xy, pool[e], c + u * x, back, np.array([0.0, d]), off, tol, both_ends=False
+                    )
+                    for (e, x), d in zip(sides, depths, strict=True)
                 )
-                for e, x, d in zip(ends, ext, depths, strict=True)
-            ) or any(
-                long_wall_on_line(xy, long_walls, c + u * x, back, tol) for x in ext
+                or any(long_wall_on_line(xy, long_walls, c + u * x, back, off) for _, x in sides)
+                or back_on_wall_face(xy, c + back * max(depths), u, ext, off, tol)
             ):
-                continue  # a side runs on past the back, or on a wall's line: a wall's
+                continue  # a side runs on past the back, or on a wall's line, or the
+                # back on a wall face: a wall's
             take = pool[on & (side * s <= max(depths) + tol)]
             idx = np.r_[islands[kw].index, take]
             isl = classify_island(xy[idx], idx, params)
