@@ -112,6 +112,16 @@ def floor_level(pts: Array, ring: NDArray[np.bool_], h_sec: float, z_min: float)
     return float(np.quantile(floor_pts, 0.05)) if len(floor_pts) else z_min
 
 
+#: The wall face beside an engaged column is tested in at most this many layers of its
+#: height.
+FACE_LAYERS = 40
+#: A layer holds the face when its face points span this share of the cookie's width
+#: along the face, or ``FACE_SPAN_M`` metres if less (a post or a pipe beside a column
+#: spans its own width only).
+FACE_SPAN_SHARE = 0.5
+FACE_SPAN_M = 0.2
+
+
 def face_cover(
     pts: Array,
     z: Array,
@@ -122,10 +132,18 @@ def face_cover(
     floor_z: float,
     top_z: float,
 ) -> float:
-    """Share of the wall face beside an engaged column that holds points (0..1).
+    """Share of the height of the wall face beside an engaged column that holds the
+    face (0..1).
 
-    Cells of ``3 x spacing`` in (along the face, height) on both sides of the column,
-    from the floor to the top: a wall fills them, a fence or a rail does not.
+    Layers of ``max(3 x spacing, 5 cm, height / FACE_LAYERS)`` from the floor to the top;
+    a layer holds the face when its points on the face line, within the cookie's width
+    on either side of the column, span at least ``FACE_SPAN_SHARE`` of that width (or
+    ``FACE_SPAN_M``) along it: a wall does in every layer it is seen in, a fence, a
+    rail or a bench in a few, a post beside the column in none.  Cells of
+    ``3 x spacing`` over the face's area, as before, counted the wall of a tall nave as
+    a third covered: high up and far from the stations its points are further apart
+    than the cloud's median spacing (draw 39 of the supports family: 0.6 m engaged
+    columns 17 m tall, points in 64-68 of about 70 layers of 25 cm, 5-45 % of the cells).
     """
     c = max(0.05, 3.0 * sc.spacing)
     width = sh["buffer"] + RING_M - 2 * sc.tol
@@ -135,12 +153,15 @@ def face_cover(
         return 0.0
     t = np.array([-sh["normal"][1], sh["normal"][0]])
     along = (pts[on, :2] - sh["centre"]) @ t
-    ia = np.floor((along + sh["radius"] + 2 * sc.tol + width) / c).astype(np.int64)
-    iz = np.floor((z[on] - floor_z) / c).astype(np.int64)
-    n_along = int(np.ceil((2 * (sh["radius"] + 2 * sc.tol + width)) / c))
-    occupied = len(np.unique(iz * (n_along + 1) + ia))
-    total = 2 * int(np.ceil(width / c)) * int(np.ceil((top_z - floor_z) / c))
-    return min(1.0, occupied / max(total, 1))
+    step = max(c, (top_z - floor_z) / FACE_LAYERS)
+    n_layers = int(np.ceil((top_z - floor_z) / step))
+    iz = np.minimum(((z[on] - floor_z) / step).astype(np.int64), n_layers - 1)
+    hi = np.full(n_layers, -np.inf)
+    lo = np.full(n_layers, np.inf)
+    np.maximum.at(hi, iz, along)
+    np.minimum.at(lo, iz, along)
+    need = min(FACE_SPAN_SHARE * width, FACE_SPAN_M)
+    return float(np.count_nonzero(hi - lo >= need)) / n_layers
 
 
 def extract_support(

@@ -28,7 +28,13 @@ from pyheracles.supports.core import (
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.piers import in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
-from pyheracles.supports.rings import RING_RADIUS_M, detached_half_column, engaged_on_wall
+from pyheracles.supports.rings import (
+    RING_RADIUS_M,
+    WALL_BAND_M,
+    detached_half_column,
+    engaged_on_wall,
+    wall_face_beside,
+)
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 
 # ------------------------------------------------------------------------------ main
@@ -196,6 +202,8 @@ def detect_supports_checked(
                 or not wall_tree.query_ball_point(sh["centre"], sh["radius"] + 3 * sc.distance)
             )
         ]
+    if params.engaged:
+        engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
     if not shapes:
         notes.append(
             f"no support found in the section {at} "
@@ -295,6 +303,50 @@ def detect_supports_checked(
     if not rows:
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+def engage_on_wall_faces(
+    p: Array,
+    order: NDArray[np.intp],
+    z_sorted: Array,
+    shapes: list[dict],
+    h_sec: float,
+    sc: Scales,
+    rng: np.random.Generator,
+) -> None:
+    """Turn the free column shapes that stand against a wall's face into engaged ones,
+    in place.
+
+    The section's wall islands next to an engaged column are often missing: the shaft
+    shadows the wall beside it, and high up a wall's face is sparse in a thin slab
+    (:func:`~pyheracles.supports.rings.detached_half_column` needs wall points within a
+    few centimetres).  Here the face is sought among the points of a slab
+    ``WALL_BAND_M`` above and below the shape's section, within ``radius + max(1 m,
+    radius)`` of its centre (:func:`~pyheracles.supports.rings.wall_face_beside`).
+    """
+    slabs: dict[float, tuple[Array, Array]] = {}
+    for sh in shapes:
+        if sh["class"] != "column":
+            continue
+        h = float(sh.get("h_sec", h_sec))
+        if h not in slabs:
+            a, b = np.searchsorted(z_sorted, [h - WALL_BAND_M, h + WALL_BAND_M])
+            idx = order[a:b]
+            slabs[h] = (p[idx, :2], np.abs(p[idx, 2] - h) <= sc.thickness / 2)
+        xy, thin = slabs[h]
+        c, r = np.asarray(sh["centre"], dtype=np.float64), float(sh["radius"])
+        reach = r + max(1.0, r)
+        box = np.all(np.abs(xy - c) <= reach, axis=1)
+        near = xy[box]
+        dist = np.hypot(*(near - c).T)
+        ring = near[thin[box] & (np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r))]
+        face = wall_face_beside(near[dist <= reach], ring, c, r, sc.tol, rng)
+        if face is None:
+            continue
+        n, d, face_rms = face
+        sh["class"] = "engaged_column"
+        sh.update(normal=n, d=d, face_gap=max(0.01, 3.0 * face_rms), angle=0.0)
+        sh["half"] = np.array([r, r])
 
 
 #: A column that carries nothing (a broken column, one under the open sky) is one of the
