@@ -141,3 +141,52 @@ def test_crowns_over_roofs_of_draw_18_stay_out(monkeypatch) -> None:
     monkeypatch.setattr(crowns, "CROWN_SLOPE", 1e6)
     taken_median, _ = _run(18)
     assert taken_median > 285
+
+
+def _roof_and_clusters() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A flat 10 x 10 m roof at 3 m (cluster 0, inside a polygon x, y in 0..10) and three
+    clusters apart from it: a crown over its east edge at 5.5-7 m running 1.5 m off the
+    polygon (1), a chimney inside at 4.5-5 m (2), and the upper part of a wall climbing a
+    slope, 12-14 m off the roof's west edge at 6-8 m (3).
+
+    Returns the points, the cluster labels, inside and near (within 0.5 m) masks.
+    """
+    g = np.arange(0.0, 10.1, 1.0)
+    gx, gy = np.meshgrid(g, g)
+    roof = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, 3.0)])
+    crown = np.array([[9.0, 4.0, 5.5], [9.8, 4.6, 6.2], [10.7, 5.1, 6.8], [11.4, 4.4, 7.0]])
+    chimney = np.array([[5.1, 5.2, 4.6], [5.3, 5.0, 5.0]])
+    wall = np.array([[-12.0, 5.0, 6.0], [-13.0, 5.1, 7.0], [-14.0, 5.0, 8.0]])
+    xyz = np.concatenate([roof, crown, chimney, wall])
+    labels = np.repeat([0, 1, 2, 3], [len(roof), len(crown), len(chimney), len(wall)])
+    dist = np.maximum(np.maximum(-xyz[:, 0], xyz[:, 0] - 10.0), 0.0)
+    return xyz, labels.astype(np.int32), dist == 0.0, dist <= 0.5
+
+
+def test_a_crown_apart_from_the_roof_floats_and_a_chimney_or_a_wall_upslope_does_not() -> None:
+    from pyheracles.complex.clusters import floating_clusters
+
+    xyz, labels, inside, near = _roof_and_clusters()
+    out = floating_clusters(xyz, labels, inside, near, rise_m=1.0, reach_m=3.2)
+    assert out[labels == 1].all()
+    assert not out[labels != 1].any()
+    # nothing off the polygon: a part of the feature apart from the rest (a dormer)
+    assert not floating_clusters(xyz, labels, inside, np.ones_like(near), 1.0, 3.2).any()
+    # a storey standing out over the outline reaches down to the main cluster's top
+    low = xyz.copy()
+    low[labels == 1, 2] -= 1.8
+    assert not floating_clusters(low, labels, inside, near, 1.0, 3.2)[labels == 1].any()
+
+
+def test_a_crown_over_the_gate_of_draw_18_floats(monkeypatch) -> None:
+    """Draw 18 (1.8 points/m^2): a crown 2-3.5 m over gate G01's roof, apart from it, was
+    kept as a cluster near the polygon (G01 F1 0.875); left out, G01 scores 0.9 or more."""
+    from pyheracles.complex import clusters
+
+    _, f1 = _run(18)
+    assert f1["gate/G01"] >= 0.9
+    monkeypatch.setattr(
+        clusters, "floating_clusters", lambda xyz, labels, *a: np.zeros(len(labels), bool)
+    )
+    _, f1_kept = _run(18)
+    assert f1_kept["gate/G01"] < 0.9

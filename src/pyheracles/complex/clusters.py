@@ -19,6 +19,7 @@ __all__ = [
     "SOLID_SHARE",
     "TOP_NEIGHBOURS",
     "cluster",
+    "floating_clusters",
     "hull",
     "local_top",
     "object_points",
@@ -166,6 +167,14 @@ def object_points(
     labels = cluster(xyz[cand[core]], params)
     near_poly = cand_dist <= 0.5 * float(params.buffer_m)  # type: ignore[arg-type]
     keep[core] = select_clusters(labels, cand_in[core], near_poly[core], params)
+    if params.outside_above_top_m is not None:
+        # a crown over the roof's edge, apart from it, runs on off the polygon
+        reach = 2.0 * float(params.attach_distance_m)  # type: ignore[arg-type]
+        floating = floating_clusters(
+            xyz[cand[core]], labels, cand_in[core], near_poly[core],
+            params.outside_above_top_m, reach,
+        )  # fmt: skip
+        keep[np.flatnonzero(core)[floating]] = False
     if params.outside_above_top_m is not None and (keep & cand_in).sum() >= 3:
         # outside the polygon, nothing of the feature rises above its top inside it
         # (eaves and facades stand lower): there, it is the crown of a tree beside it.
@@ -384,6 +393,49 @@ def select_clusters(
     best = int(np.argmax(n_in))
     keep[best] = True
     return keep[labels]
+
+
+def floating_clusters(
+    xyz: NDArray[np.float64],
+    labels: NDArray[np.int32],
+    inside: NDArray[np.bool_],
+    near: NDArray[np.bool_],
+    rise_m: float,
+    reach_m: float,
+) -> NDArray[np.bool_]:
+    """Mask of the points of the clusters floating over the object's main cluster.
+
+    :func:`select_clusters` keeps every cluster lying mostly near the polygon,
+    however small.  A tree crown over the edge of a roof, apart from the roof
+    (on a dense survey the clustering distance is under the gap between them),
+    is such a cluster (complex draw 18: a crown 2-3.5 m over a gate's roof).  A
+    cluster other than the main one (most points inside the polygon) is a crown's
+    when it runs on off the polygon (a point beyond ``near``), its lowest point
+    stands more than ``rise_m`` above the main cluster's top (99th percentile), and
+    every point of it stands more than ``rise_m`` above the main cluster's surface
+    beside it (:func:`local_top` within ``reach_m``).  A chimney or a dormer apart
+    from the roof stands inside the polygon; the upper part of a wall climbing a
+    slope, apart from its lower part, has none of it beside it; a storey standing
+    out over the outline (AHN3 tile 1) reaches down to the main cluster's top.
+    """
+    n = np.bincount(labels)
+    n_in = np.bincount(labels, weights=inside.astype(np.float64), minlength=len(n))
+    best = int(np.argmax(n_in))
+    main = labels == best
+    far = np.bincount(labels, weights=(~near).astype(np.float64), minlength=len(n)) > 0
+    far[best] = False
+    at = np.flatnonzero(far[labels])
+    if len(at) == 0 or not main.any():
+        return np.zeros(len(labels), dtype=bool)
+    top = float(np.percentile(xyz[main, 2], 99))
+    low = np.full(len(n), np.inf)
+    np.minimum.at(low, labels, xyz[:, 2])
+    surface = local_top(xyz[main], xyz[at, :2], reach_m)
+    over = np.zeros(len(labels), dtype=bool)
+    over[at] = np.isfinite(surface) & (xyz[at, 2] > surface + rise_m)
+    n_over = np.bincount(labels, weights=over.astype(np.float64), minlength=len(n))
+    out = far & (n_over == n) & (low > top + rise_m)
+    return out[labels]
 
 
 def hull(xy: NDArray[np.float64]) -> Any:

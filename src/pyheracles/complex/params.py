@@ -115,7 +115,11 @@ class ComplexParams:
         percentile): eaves and facades stand lower, the crown of a tree beside
         a wall or a small building higher (complex family, 0.1-0.4 points/m^2:
         such crown points chained to walls at a clustering distance of 3-7 m).
-        Metres; ``None`` turns the test off.
+        A cluster apart from the object's main one, running on off the
+        polygon and standing this much over the main one's top and over its
+        points beside it, is a crown's too (see
+        :func:`pyheracles.complex.clusters.floating_clusters`).
+        Metres; ``None`` turns both tests off.
     scatter_offset_m
         Scattered points join an object only within this XY distance of its
         polygon (inside counts as 0): roof edges and eaves, not the hedge or
