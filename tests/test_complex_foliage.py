@@ -157,11 +157,12 @@ def test_smooth_patches_of_a_crown_do_not_chain_it_to_a_roof() -> None:
     few of its points that looked flat (F1 0.64, 533-626 tree points in objects); voted
     scattered (most of their 8 nearest are, and they stand over the roof beside them),
     they no longer do.  The crown rule (``crown_rise_m``) is off here, to show the vote
-    alone."""
+    alone (the floating-cluster test, part of ``outside_above_top_m``, leaves 491 tree
+    points out without the vote, 533 before it)."""
     alone = ComplexParams(crown_rise_m=None)
     off, f1_off = _run(18, replace(alone, scatter_vote_neighbours=None))
     taken, f1 = _run(18, alone)
-    assert off > 500 and f1_off["building/B23"] < 0.7
+    assert off > 450 and f1_off["building/B23"] < 0.7
     assert taken < 400 and f1["building/B23"] >= 0.95
     assert np.median(list(f1.values())) >= 0.975
 
