@@ -49,11 +49,13 @@ def crown_points(
     share: float,
     below_m: float = 0.5,
     outside: NDArray[np.bool_] | None = None,
+    under: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask over ``members`` of a tree crown's points, peeled from off the polygons inwards.
 
     ``outside`` (over ``members``) marks the object's points outside its polygon (its
-    buffer ring: eaves, facades, a plinth); see :func:`crown_pass`.
+    buffer ring: eaves, facades, a plinth), ``under`` those where a pulse ended after
+    going through something above them; see :func:`crown_pass`.
 
     Each pass (:func:`crown_pass`) finds the crown's points within ``radius_m`` of its
     part already known (off the polygons, then the points found before); passes repeat
@@ -67,6 +69,7 @@ def crown_points(
         new = crown_pass(
             xyz, members[rest], np.concatenate([off, members[flag]]), radius_m, rise_m, share,
             below_m, None if outside is None else outside[rest],
+            None if under is None else under[rest],
         )  # fmt: skip
         if not new.any():
             break
@@ -83,6 +86,7 @@ def crown_pass(
     share: float,
     below_m: float = 0.5,
     outside: NDArray[np.bool_] | None = None,
+    under: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask over ``members`` of the points of a tree crown over the object.
 
@@ -102,7 +106,11 @@ def crown_pass(
     (complex draw 18: a crown 3-5 m over a flat roof, its points inside the
     polygon never peeled); a roof point stands on the slope of the roof points
     beside it.  The facades and plinths of the buffer ring (``outside``), which
-    stand under the roof's edge, are left out of the slopes.
+    stand under the roof's edge, are left out of the slopes, and the slopes do not
+    bound the points ``under`` something (the last return of a pulse with several):
+    such a point is the surface under a crown, and where a roof stands over a
+    platform inside the polygon (a pavilion) the slopes from the platform would
+    take the roof for a crown (complex draw 26, B18: its roof points under a crown).
 
     Parameters
     ----------
@@ -128,6 +136,9 @@ def crown_pass(
     outside
         Mask over ``members`` of those outside the polygon; ``None``: all
         inside.
+    under
+        Mask over ``members`` of the last returns of pulses with several
+        returns; ``None``: none.
 
     Returns
     -------
@@ -159,7 +170,10 @@ def crown_pass(
     beside = np.where(n > 0, 0.5 * (z[rows, lo] + z[rows, np.minimum(hi, k - 2)]), np.inf)
     z_in = p[:, 2] if outside is None else np.where(outside, np.inf, p[:, 2])
     slope = np.append(z_in, np.inf)[idx] + CROWN_SLOPE * np.where(np.isfinite(dxy), dxy, 0.0)
-    beside = np.minimum(beside, slope.min(axis=1))
+    slope = slope.min(axis=1)
+    if under is not None:
+        slope = np.where(under[at], np.inf, slope)
+    beside = np.minimum(beside, slope)
     at = at[p[at, 2] > beside + rise_m]
     if len(at) == 0:
         return flag

@@ -173,7 +173,9 @@ def _crowns(
 ) -> NDArray[np.bool_]:
     """Mask over ``members`` of a tree crown's points (see :func:`crown_points`).
 
-    ``outside`` (over ``members``) marks those outside the polygon, in its buffer ring.
+    ``outside`` (over ``members``) marks those outside the polygon, in its buffer ring;
+    the last returns of pulses with several returns are the surface under something
+    (when the cloud has echoes).
 
     The points beside them that count are untaken, outside every polygon and
     beyond the object's buffer (``buffered``, prepared): its eaves and facades
@@ -185,9 +187,12 @@ def _crowns(
     near = site.index.query_box(lo[0], lo[1], hi[0], hi[1])
     off = near[site.pool[near] & ~site.inside_any[near]]
     off = off[~shapely.contains_xy(buffered, site.xyz[off, 0], site.xyz[off, 1])]
+    under = None
+    if site.multi_echo is not None and site.pass_through is not None:
+        under = site.multi_echo[members] & ~site.pass_through[members]
     return crown_points(
         site.xyz, members, off, radius, float(rp.crown_rise_m),  # type: ignore[arg-type]
-        rp.crown_share, outside=outside,
+        rp.crown_share, outside=outside, under=under,
     )  # fmt: skip
 
 
