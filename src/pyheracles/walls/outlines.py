@@ -7,6 +7,7 @@ from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening, WallParams
 from pyheracles.walls.openings import merge_lights, refine_edges
+from pyheracles.walls.reveals import reveal_edges
 
 __all__ = [
     "dense_cells",
@@ -88,7 +89,7 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                  uz_all: Array,
                  near: NDArray[np.bool_], behind: NDArray[np.bool_], front: NDArray[np.bool_],
                  p: WallParams, side: NDArray[np.int64] | None = None,
-                 ) -> tuple[Array, list[Opening], tuple[float, float],
+                 depth: Array | None = None) -> tuple[Array, list[Opening], tuple[float, float],
                             tuple[float, float]]:  # fmt: skip
     """Envelope and openings of one wall from its face points ``w_uz`` (``(u, z)``).
 
@@ -98,7 +99,10 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     ``uz_all`` are the detection sample's points on the plane, with the masks of those
     ``near`` the wall, ``behind`` its face(s) (inside the wall or beyond a lone face)
     and in ``front`` of it; ``side``: on which side of the wall's plane each of those
-    lies (+1/-1; the floor inside and the ground outside under a door).
+    lies (+1/-1; the floor inside and the ground outside under a door); ``depth``:
+    their distance across the wall from its mid-plane (m): where both faces are seen,
+    the points between them line the openings, and a window's jambs and head are put
+    where its straight reveals stand (:func:`~pyheracles.walls.reveals.reveal_edges`).
     """
     from scipy import ndimage
 
@@ -130,6 +134,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
         pij = np.floor((uz_all - lo) / c).astype(np.int64)
         inside = np.all((pij >= 0) & (pij < shape), axis=1)
         slices = ndimage.find_objects(lab)
+        # the points between a wall's two faces line its openings (lone faces: no depth)
+        lining = behind & near if depth is not None and len(np.unique(face_of)) == 2 else None
         for m, sl in enumerate(slices, start=1):
             if sl is None:
                 continue
@@ -165,8 +171,20 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
             jambs = (lo[1] + (sl[1].start + full.min()) * c,
                      lo[1] + (sl[1].start + full.max() + 1) * c)  # fmt: skip
             local = _edge_points(ij, on_plane, sl, region)
+            grid = (u0, u1, z0, z1)
             u0, u1, z0, z1 = refine_edges(w_uz[local], face_of[local], u0, u1, z0, z1, c,
                                           at_foot, jambs)  # fmt: skip
+            if lining is not None and not on_floor:  # the reveals between the faces
+                # (a door's open leaf stands across its reveal edge on, as a jamb would)
+                box = lining & (np.abs(uz_all[:, 0] - 0.5 * (grid[0] + grid[1]))
+                                < 0.5 * (grid[1] - grid[0]) + 0.5)  # fmt: skip
+                box &= (uz_all[:, 1] > grid[2] - 0.5) & (uz_all[:, 1] < grid[3] + 0.5)
+                found = reveal_edges(uz_all[box], depth[box], *grid, c, jambs)  # type: ignore[index]
+                # the opening is where every surface is open: the innermost jambs of
+                # the faces' and the reveals'; the head where the soffit stands
+                u0 = u0 if np.isnan(found[0]) else max(u0, found[0])
+                u1 = u1 if np.isnan(found[1]) else min(u1, found[1])
+                z1 = z1 if np.isnan(found[3]) else found[3]
             if on_floor:  # a door: the opening through the wall starts at the highest
                 # face foot under it (the floor inside above a step down outside)
                 levels = [lo[1] + float(np.median(ft[sl[0]])) * c for ft in feet]

@@ -132,7 +132,7 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
         near = np.abs(depth) < 1.5 + (0 if np.isnan(w["thickness"]) else w["thickness"])
         side = np.sign(depth).astype(np.int64)  # of the wall's plane: the floor, the ground
         outline, openings, ur, zr = wall_outline(
-            w_uz, face_of, on_plane, uz_all, near, behind, front, p, side
+            w_uz, face_of, on_plane, uz_all, near, behind, front, p, side, depth
         )
         w.update(outline=outline, openings=openings, u_range=ur, z_range=zr, idx=idx,
                  ends=list(ur))  # fmt: skip

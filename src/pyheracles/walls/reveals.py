@@ -1,0 +1,155 @@
+"""Reveals: the edges of an opening through a wall from the surfaces lining it.
+
+A window or door is lined, between the wall's two faces, by its reveals: the jambs,
+the head's soffit and the sill, square to the wall (straight) or widening towards one
+face (splayed).  The opening through the wall is its narrowest section, where a
+straight reveal stands: a jamb's points there share one ``u`` (a plane seen edge on in
+the wall's ``(u, z)`` frame, however sparse the faces are), and a splayed part spreads
+outwards from it.  Glass, cames and a door leaf fill the opening at one depth and are
+left out; mixed pixels inside the opening are few and scattered.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pyheracles.walls.model import Array
+
+__all__ = ["RevealParams", "pane_mask", "reveal_edges", "reveal_peak"]
+
+
+@dataclass(frozen=True)
+class RevealParams:
+    """Parameters of :func:`reveal_edges` (metres, counts).
+
+    Attributes
+    ----------
+    bin_m
+        Histogram bin across a reveal (0.01 m); the peak is three bins wide.
+    min_points
+        Fewest points in the peak's three bins (8).
+    contrast
+        The peak's three bins hold at least this many times the median count of three
+        bins over the span searched (6): a straight reveal seen edge on, not the spread
+        of a splay, of mixed pixels or of the glass's stray returns beside its depth
+        (church draw 0: 10 a bin across the opening, 250 on the jamb).
+    sharpness
+        The fullest of the peak's three bins holds at least this share of them (0.5):
+        a plane seen edge on (noise of a few millimetres), not a splay seen across
+        (church draw 0: a jamb 5 cm outside the opening).
+    row_m, coverage
+        A reveal's peak reaches at least ``coverage`` (0.5) of the rows ``row_m``
+        (0.1 m) tall over the heights searched (columns across the head's band):
+        church draw 8's leaded light had 11 stray returns in three bins 0.37 m inside
+        its jamb, above the contrast of a sparse band.
+    inward_m
+        Farthest an edge is looked for inside the grid's hole (0.4 m: the widest splay
+        of a reveal, 0.35 m, and a cell).
+    pane_m
+        Points within this depth of the glass, cames or leaf (the median depth of the
+        points in the opening's middle) are no reveal (0.03 m).
+    """
+
+    bin_m: float = 0.01
+    min_points: int = 8
+    contrast: float = 6.0
+    sharpness: float = 0.5
+    row_m: float = 0.1
+    coverage: float = 0.5
+    inward_m: float = 0.4
+    pane_m: float = 0.03
+
+
+def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
+                along: Array | None = None, extent: tuple[float, float] | None = None,
+                ) -> float:  # fmt: skip
+    """Position of a straight reveal seen edge on among coordinates ``v`` (m, growing
+    into the opening), in ``[lo, hi)``: the median of the densest three bins of the
+    innermost run of bins passing ``min_points`` and ``contrast`` (the narrowest
+    section: across a mullion, the next light's jamb is farther out) where the fullest
+    of the three holds ``sharpness`` of them and, given the points' other coordinate
+    ``along`` and the ``extent`` searched along it, the peak's points reach
+    ``coverage`` of its ``row_m`` rows (a reveal lines the opening along its length;
+    stray returns gathered in one bin do not, and the next run out is tried); NaN
+    when no run does."""
+    inside = (v >= lo) & (v < hi)
+    v = v[inside]
+    if len(v) < p.min_points or hi <= lo:
+        return float("nan")
+    k = np.floor((v - lo) / p.bin_m).astype(np.int64)
+    cnt = np.bincount(k, minlength=int(np.ceil((hi - lo) / p.bin_m)) + 2).astype(np.float64)
+    three = cnt[:-2] + cnt[1:-1] + cnt[2:]
+    base = float(np.median(three))
+    good = np.flatnonzero(three >= max(p.min_points, p.contrast * base))
+    if len(good) == 0:
+        return float("nan")
+    starts = np.flatnonzero(np.r_[True, np.diff(good) > 1])
+    ends = np.r_[starts[1:], len(good)] - 1
+    for a, b in zip(starts[::-1], ends[::-1], strict=True):  # innermost first
+        j = good[a] + int(np.argmax(three[good[a] : good[b] + 1])) + 1
+        if cnt[j - 1 : j + 2].max() < p.sharpness * three[j - 1]:
+            continue  # spread over the three bins: a splay, not a plane edge on
+        on = (k >= j - 1) & (k <= j + 1)
+        if along is not None and extent is not None:
+            rows = max(1, int(np.ceil((extent[1] - extent[0]) / p.row_m)))
+            seen = np.unique(np.floor((along[inside][on] - extent[0]) / p.row_m))
+            if len(seen) < p.coverage * rows:
+                continue  # stray returns gathered at a few heights
+        return float(np.median(v[on]))
+    return float("nan")
+
+
+def pane_mask(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: float,
+              p: RevealParams) -> np.ndarray:  # fmt: skip
+    """Points that may line the opening ``u0``-``u1`` x ``z0``-``z1``: not within
+    ``pane_m`` of the depth of what fills its middle (the median depth of the points in
+    its central half, when at least 5)."""
+    uc, zc = 0.5 * (u0 + u1), 0.5 * (z0 + z1)
+    mid = (np.abs(uz[:, 0] - uc) < 0.25 * (u1 - u0)) & (np.abs(uz[:, 1] - zc) < 0.25 * (z1 - z0))
+    if np.count_nonzero(mid) < 5:
+        return np.ones(len(uz), dtype=bool)
+    return np.abs(depth - float(np.median(depth[mid]))) > p.pane_m
+
+
+def reveal_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: float,
+                 c: float, jambs: tuple[float, float] | None = None,
+                 p: RevealParams | None = None,
+                 ) -> tuple[float, float, float, float]:  # fmt: skip
+    """Jambs, sill and head of an opening from the points between the wall's faces
+    around it (``uz`` on the wall plane, ``depth`` across it; NaN: not measured).
+
+    The grid's hole ``u0``-``u1`` x ``z0``-``z1`` (cell ``c``) is where neither face
+    is: a splayed face's hole is wider than the opening by its splay, a sparse face's
+    reaches into the gaps between its points.  Each jamb is looked for from two cells
+    outside the grid's edge to ``inward_m`` inside it (not past the middle), among the
+    points at the heights where the hole has its full width (``jambs``; default its
+    upper part below the head); the head among the points of the central column band
+    (a tenth of the width, at least a cell), from ``inward_m`` below the grid's head to
+    four cells above it (the apex of a pointed head, closed in the grid).  The sill is
+    not measured (NaN): its straight part faces up, out of sight of scanners below it,
+    and the straight jambs' lowest points seen stood 0.1-0.4 m above it (church draw 4).
+    """
+    p = p or RevealParams()
+    nan = float("nan")
+    if len(uz) < p.min_points:
+        return nan, nan, nan, nan
+    ok = pane_mask(uz, depth, u0, u1, z0, z1, p)
+    q = uz[ok]
+    h = z1 - z0
+    lo_z, hi_z = (z0 + 0.25 * h, z1 - 0.1 * h) if jambs is None else jambs
+    band = (q[:, 1] > lo_z) & (q[:, 1] < hi_z)
+    uc, zc = 0.5 * (u0 + u1), 0.5 * (z0 + z1)
+    zs = q[band, 1]
+    left = reveal_peak(q[band, 0], u0 - 2 * c, min(u0 + p.inward_m, uc), p, zs, (lo_z, hi_z))
+    right = -reveal_peak(-q[band, 0], -(u1 + 2 * c), -max(u1 - p.inward_m, uc), p, zs,
+                         (lo_z, hi_z))  # fmt: skip
+    a = u0 if np.isnan(left) else left
+    b = u1 if np.isnan(right) else right
+    half = max(0.05 * (b - a), c)
+    centre = np.abs(q[:, 0] - 0.5 * (a + b)) < half
+    head = -reveal_peak(-q[centre, 1], -(z1 + 4 * c), -max(z1 - p.inward_m, zc), p,
+                        q[centre, 0], (0.5 * (a + b) - half, 0.5 * (a + b) + half))  # fmt: skip
+    sill = nan  # its straight part faces up, out of sight of scanners below
+    return left, right, sill, head

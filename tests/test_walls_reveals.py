@@ -1,0 +1,91 @@
+"""Walls: the jambs and head of an opening from its reveals (church draws 4 and 17)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyheracles.synthetic.scanner import TLSStation, scan
+from pyheracles.synthetic.scene import Scene
+from pyheracles.walls import segment_walls
+from pyheracles.walls.reveals import RevealParams, reveal_peak
+
+QUIET = {"noise_m": 0.002, "noise_per_m": 0.0, "detection": 1e-9, "mixed_pixel_share": 0.0}
+L, H, T = 8.0, 4.5, 0.5  # wall length, height, thickness (m)
+U0, U1, Z0, Z1 = 3.0, 4.2, 1.2, 3.0  # the opening through the wall
+SPLAY, PANE = 0.2, 0.25  # the inner reveal widens by SPLAY from depth PANE to the inner face
+
+
+def _face(s: Scene, y: float, a: float, b: float, lo: float, hi: float) -> None:
+    """A wall face at ``y`` with the hole ``a``-``b`` x ``lo``-``hi``."""
+    for u_0, u_1, z_0, z_1 in ((0, a, 0, H), (b, L, 0, H), (a, b, 0, lo), (a, b, hi, H)):
+        s.add_quad([[u_0, y, z_0], [u_1, y, z_0], [u_1, y, z_1], [u_0, y, z_1]], instance=1,
+                   class_name="wall", part="face")  # fmt: skip
+
+
+def _ring(y: float, grow: float) -> np.ndarray:
+    return np.array([[U0 - grow, y, Z0 - grow], [U1 + grow, y, Z0 - grow],
+                     [U1 + grow, y, Z1 + grow], [U0 - grow, y, Z1 + grow]])  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def splayed_window() -> np.ndarray:
+    """A wall 0.5 m thick (outer face at y = 0, facing -y) with an unglazed opening
+    1.2 x 1.8 m: straight reveals from the outer face to 0.25 m deep, splayed by 0.2 m
+    from there to the inner face.  The inner face is scanned from 4 m, the outer face
+    from 25 m at 0.5 deg (22 cm between scan lines, as a high window's outer face seen
+    from the ground): the faces' holes are the inner face's, 0.2 m wider all round, and
+    the outer face's, read between points 22 cm apart."""
+    s = Scene()
+    _face(s, 0.0, U0, U1, Z0, Z1)
+    _face(s, T, U0 - SPLAY, U1 + SPLAY, Z0 - SPLAY, Z1 + SPLAY)
+    a, m, b = _ring(0.0, 0.0), _ring(PANE, 0.0), _ring(T, SPLAY)
+    for p, q in ((a, m), (m, b)):  # the straight reveals, then the splayed ones
+        for k in range(4):
+            s.add_quad([p[k], p[(k + 1) % 4], q[(k + 1) % 4], q[k]], instance=1,
+                       class_name="wall", part="reveal")  # fmt: skip
+    stations = [
+        TLSStation((3.6, 4.0, 1.6), step_deg=0.2, azimuth_deg=(200, 340), **QUIET),
+        TLSStation((5.0, -25.0, 1.6), step_deg=0.5, azimuth_deg=(60, 120), **QUIET),
+    ]
+    return scan(s, stations, rng=1).xyz
+
+
+def test_splayed_window_is_the_straight_reveals_section(splayed_window) -> None:
+    """Church draws 4 and 17: where the outer face is sparse, the faces put the jambs
+    and head 5-17 cm off (the inner face's splayed hole, or the outer face read between
+    its scan lines); the straight reveals, seen edge on, stand at the opening's edges."""
+    r = segment_walls(splayed_window)
+    assert len(r.walls) == 1 and len(r.walls[0].faces) == 2
+    w = r.walls[0]
+    (win,) = [o for o in w.openings if o.kind == "window"]
+    u = np.sort([(np.array([U0, 0.0, 0.0]) - w.origin) @ w.u_axis,
+                 (np.array([U1, 0.0, 0.0]) - w.origin) @ w.u_axis])  # fmt: skip
+    assert win.u_min == pytest.approx(u[0], abs=0.02)
+    assert win.u_max == pytest.approx(u[1], abs=0.02)
+    assert win.z_max == pytest.approx(Z1, abs=0.02)
+
+
+def test_reveal_peak_takes_the_innermost_straight_reveal() -> None:
+    """Across a mullion the next light's jamb is a reveal too, farther out: the
+    narrowest section is the innermost peak; scattered points are no peak."""
+    rng = np.random.default_rng(0)
+    jamb = rng.normal(0.30, 0.002, 60)  # this light's straight jamb
+    other = rng.normal(0.12, 0.002, 80)  # the next light's, across a mullion
+    splay = rng.uniform(0.05, 0.30, 30)  # a splayed reveal's spread
+    mixed = rng.uniform(0.3, 0.7, 10)  # mixed pixels inside the opening
+    v = np.r_[jamb, other, splay, mixed]
+    assert reveal_peak(v, 0.0, 0.7, RevealParams()) == pytest.approx(0.30, abs=0.005)
+    assert np.isnan(reveal_peak(np.r_[splay, mixed], 0.0, 0.7, RevealParams()))
+
+
+def test_stray_returns_in_one_bin_are_no_reveal() -> None:
+    """Church draw 8: in a sparse band, 11 stray returns of a leaded light gathered in
+    three bins 0.37 m inside the jamb passed the contrast; a reveal lines the opening
+    along its height, and they reach a few of its rows only."""
+    rng = np.random.default_rng(1)
+    jamb_v, jamb_z = rng.normal(0.10, 0.002, 40), rng.uniform(1.0, 3.0, 40)
+    stray_v, stray_z = rng.normal(0.47, 0.004, 12), rng.uniform(2.0, 2.3, 12)
+    v, z = np.r_[jamb_v, stray_v], np.r_[jamb_z, stray_z]
+    p = RevealParams()
+    assert reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0)) == pytest.approx(0.10, abs=0.005)
