@@ -68,3 +68,71 @@ def test_timber_beside_a_plate_or_crossing_it_is_no_bearing():
     # a post under the plate: not laid along it
     post = _box([4.2, -4.8, -1.0], Z, 0.2, 0.2, 2.1)
     assert not bearing([plate, beside, tie, post], FrameParams()).any()
+
+
+def _found(centre, axes, length, width, height, measured=True) -> BeamCuboid:
+    """A box as the step found it, seen on one face."""
+    return BeamCuboid(
+        centre=np.asarray(centre, float),
+        axes=np.asarray(axes, float),
+        length=length,
+        width=width,
+        height=height,
+        rms=0.002,
+        n_facets=1,
+        faces_seen=1,
+        height_measured=measured,
+    )
+
+
+def test_a_strip_seen_at_a_grazing_angle_is_a_bearing_though_short_of_the_plate():
+    """Roof seed 11: the wall head's strip (32 cm between the room and the plate) was
+    read 19.5 cm wide at half density (its far part, seen at 5 degrees, is sparse),
+    and the plate, seen on one face, 15 cm wide (31 cm): the boxes lie 16 cm apart."""
+    strip = _found(
+        [2.54, -4.4917, 1.0923],
+        [[0.9982, -0.0595, 0.0], [-0.0595, -0.9982, 0.0011], [0.0, -0.0011, -1.0]],
+        3.611,
+        0.195,
+        0.033,
+        measured=False,
+    )
+    plate = _found(
+        [2.1773, -4.8025, 1.1628],
+        [[1.0, 0.0002, -0.0007], [0.0002, -1.0, 0.0011], [-0.0007, -0.0011, -1.0]],
+        4.248,
+        0.152,
+        0.109,
+    )
+    assert bearing([strip, plate], FrameParams()).tolist() == [True, False]
+
+
+def test_levels_are_the_sections_not_the_corners_of_tilted_boxes():
+    """Roof seed 18: the strip of a wall head at the floor (tie beams sunk 14 cm) and
+    its plate, 3.9 m long and tilted by 0.65 degrees: the plate's box reaches 2.2 cm
+    below its underside at one end, so the boxes' corners were 4.3 cm apart in height
+    where the sections meet within a millimetre."""
+    strip = _found(
+        [2.4985, 3.3446, 0.0929],
+        [[-1.0, 0.0001, -0.0081], [0.0001, 1.0, -0.0023], [0.0081, -0.0023, -1.0]],
+        4.993,
+        0.443,
+        0.205,
+    )
+    plate = _found(
+        [2.5234, 3.67, 0.2655],
+        [[-0.9999, -0.0003, -0.0114], [-0.0002, 1.0, -0.0027], [0.0114, -0.0027, -0.9999]],
+        3.86,
+        0.243,
+        0.14,
+    )
+    assert bearing([strip, plate], FrameParams()).tolist() == [True, False]
+
+
+def test_level_timber_farther_than_a_wall_head_is_no_bearing():
+    plate, strip = _plate_on_wall_head()
+    # the same strip 1.5 m into the room from the plate: the plate does not rest on it
+    far = _box(strip.centre + [0.0, 1.5, 0.0], X, 0.2, 0.063, 8.43)
+    # timber on the wall head 30 cm from the plate, its top above the plate's underside
+    beside = _box([4.2, -4.3, 0.12], X, 0.15, 0.14, 4.0)
+    assert not bearing([plate, far, beside], FrameParams()).any()

@@ -204,3 +204,28 @@ def test_attic_draw_with_boarding_common_rafters_and_stored_timber():
     assert s["median_f1"] >= 0.85
     assert s["spurious"].get("boarding", 0) <= 2
     assert s["spurious"].get("loose_timber", 0) <= 2
+
+
+def test_strip_of_a_gable_wall_shadowed_at_a_slant_is_a_wide_surface():
+    """Roof seeds 27 and 5: the band of a gable wall under the boarding, between the
+    wall and the first common rafter, came out as a member (with the boarding strip
+    beside it as its second face).  The wall goes on below the band, but the common
+    rafters standing in front of it cast their shadows across it at a slant, so no
+    line along the band was covered over half its length; every row is, beside the
+    shadows."""
+    rng = np.random.default_rng(2)
+    length = 2.4
+    band = _grid((-0.2, 0.2), (0.0, length), 0.0, 0.015, rng)
+    wall = _grid((0.2, 1.4), (0.0, length), 0.0, 0.015, rng)
+    # two slanted shadows 1.2 m apart, 24 cm wide along the band
+    out, along = wall[:, 0] - 0.2, wall[:, 1]
+    lit = np.ones(len(wall), dtype=bool)
+    for start in (0.0, 1.2):
+        lit &= np.abs((along - start) % length - 0.9 * out) > 0.12
+    xyz, band_facet = _strip_in(np.vstack([band, wall[lit]]))
+    assert wide_surface_bands(build_tree(xyz), xyz, [band_facet])[0]
+    # a beam face with the same members crossing its plane, and no wall beyond
+    face = _grid((-0.2, 0.2), (0.0, length), 0.0, 0.015, rng)
+    members = [_grid((0.2, 1.4), (y, y + 0.15), 0.0, 0.015, rng) for y in (0.6, 1.8)]
+    xyz, band_facet = _strip_in(np.vstack([face, *members]))
+    assert not wide_surface_bands(build_tree(xyz), xyz, [band_facet])[0]

@@ -50,6 +50,7 @@ __all__ = [
     "frame_members",
     "leaning",
     "loose",
+    "section_half_height",
 ]
 
 
@@ -80,6 +81,12 @@ class FrameParams:
         loose timber on the floor, not a member: the tie beams and plates of
         the bottom carry the rafters and posts, or span the frame from wall
         to wall (their joints hidden in the masonry).
+    bearing_reach_m
+        How far beside a horizontal beam the bearing it rests on may reach,
+        metres (:func:`bearing`): the strip of a wall head runs from the
+        room's face of the wall to the plate, up to a wall's thickness, and
+        the boxes of a strip seen at a grazing angle and of a plate seen on
+        one face are narrower than they are, so they need not touch.
     """
 
     joints: JointParams = field(default_factory=JointParams)
@@ -89,6 +96,7 @@ class FrameParams:
     leaning_below_m: float = 0.3
     plumb_deg: float = 85.0
     span_share: float = 0.8
+    bearing_reach_m: float = 1.0
 
     def validate(self) -> FrameParams:
         self.joints.validate()
@@ -102,6 +110,10 @@ class FrameParams:
             )
         if not 0 < self.span_share <= 1:
             raise InputError(f"span_share must be in (0, 1], got {self.span_share}")
+        if not 0 <= self.bearing_reach_m <= 5:
+            raise InputError(
+                f"bearing_reach_m must be in [0, 5] metres, got {self.bearing_reach_m}"
+            )
         if self.min_frame_members < 2:
             raise InputError(f"min_frame_members must be >= 2, got {self.min_frame_members}")
         return self
@@ -306,6 +318,16 @@ def loose(
     return out
 
 
+def section_half_height(b: BeamCuboid) -> float:
+    """Half the vertical extent of a beam's cross-section (not of its box), metres.
+
+    The box's own half height adds ``length / 2`` times the axis's slope: a
+    plate 4 m long tilted by a third of a degree reaches a centimetre lower at
+    one end than its underside lies at its middle.
+    """
+    return 0.5 * float(np.abs(b.axes[2, 1:]) @ [b.width, b.height])
+
+
 def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     """Boxes that are the bearing of a horizontal beam lying on them: masonry, not timber.
 
@@ -314,11 +336,18 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     face under it, is a straight horizontal band on a convex edge, as long
     as the plate, and comes out as a beam.  What gives it away is the plate:
     the box's top is level (within ``joints.contact_m``) with the underside
-    of a parallel horizontal beam beside it or on it (their sides within
-    ``joints.contact_m``) along at least half of the shorter one, i.e. the
-    surface the plate rests on goes on under the plate.  A timber lying
-    beside a plate has its top above the plate's underside (or the plate
-    would float); a member carrying another is crossed by it, not laid along it.
+    of a parallel horizontal beam beside it or on it, along at least half of
+    the shorter one, i.e. the surface the plate rests on goes on under the
+    plate.  Both levels are the sections' at the middle of the overlap, not
+    the boxes' lowest and highest corners (which a tilt of the long axis
+    moves by centimetres).  The two need not touch: the strip reaches from
+    the room's face of the wall to the plate, and the box of a strip seen at
+    a grazing angle or of a plate seen on one face is narrower than it is;
+    their sides lie within ``bearing_reach_m`` when they overlap along half
+    the longer one (a short piece whose underside happens to be level with a
+    long beam's top some way off is no plate on it).  A timber lying beside a
+    plate has its top above the plate's underside (or the plate would
+    float); a member carrying another is crossed by it, not laid along it.
     """
     n = len(beams)
     out = np.zeros(n, bool)
@@ -327,15 +356,27 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     contact = p.joints.contact_m
     for i in flat:
         low = beams[i]
-        top = float(low.centre[2]) + _half_height(low)
         for k in flat:
             up = beams[k]
             if k == i or abs(float(up.axis @ low.axis)) < cos_par:
                 continue
-            if abs(float(up.centre[2]) - _half_height(up) - top) > contact:
-                continue
             d = up.centre - low.centre
-            lat = d - (d @ low.axis) * low.axis
+            t = float(d @ low.axis)
+            lo = max(t - 0.5 * up.length, -0.5 * low.length)
+            hi = min(t + 0.5 * up.length, 0.5 * low.length)
+            if hi - lo < 0.5 * min(up.length, low.length):
+                continue
+            # apart, the strip and its plate run together along the wall: a short
+            # piece level with a long beam's top some way off is no plate on it
+            run_together = hi - lo >= 0.5 * max(up.length, low.length)
+            # the levels at the middle of the overlap
+            mid = low.centre + 0.5 * (lo + hi) * low.axis
+            top = float(mid[2]) + section_half_height(low)
+            s = float((mid - up.centre) @ up.axis)
+            under = float(up.centre[2] + s * up.axis[2]) - section_half_height(up)
+            if abs(under - top) > contact:
+                continue
+            lat = d - t * low.axis
             lat[2] = 0.0
             dist = float(np.linalg.norm(lat))
             if dist > 1e-9:
@@ -344,15 +385,11 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
                     0.5 * float(np.abs(b.axes[:, 1:].T @ u) @ [b.width, b.height])
                     for b in (low, up)
                 )
-                if dist - reach > contact:
+                gap = dist - reach
+                if gap > contact and not (run_together and gap <= p.bearing_reach_m):
                     continue
-            t = float(d @ low.axis)
-            overlap = min(t + 0.5 * up.length, 0.5 * low.length) - max(
-                t - 0.5 * up.length, -0.5 * low.length
-            )
-            if overlap >= 0.5 * min(up.length, low.length):
-                out[i] = True
-                break
+            out[i] = True
+            break
     return out
 
 

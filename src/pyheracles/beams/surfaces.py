@@ -56,6 +56,7 @@ def plane_occupancy(
     step: float,
     counts: tuple[NDArray[np.int64], NDArray[np.bool_]] | None = None,
     thickness: float | None = None,
+    any_line: bool = False,
 ) -> float:
     """Longest run of hit rows along the most covered line of a plane strip, as a share.
 
@@ -75,6 +76,13 @@ def plane_occupancy(
     own width only, one run per member.
     ``counts`` (optional): ``(owner, ok)``, the group of every cloud point
     and whether each group's points count as found (``ok[owner[i]]``).
+    With ``any_line`` a row is hit where it is hit on any line (three
+    neighbouring lines together), and the longest run of such rows is
+    returned: a member standing in front of the surface casts its shadow
+    across the strip at a slant (a common rafter in front of a gable wall),
+    so that no single line is covered along half the strip though every row
+    is, beside the shadow.  Members crossing the strip still cover the rows
+    of their own width only.
     """
     t = np.arange(t_range[0] + 0.5 * step, t_range[1], step)
     if len(t) == 0:
@@ -96,6 +104,8 @@ def plane_occupancy(
     # a surface, not the line where another surface crosses the plane: three
     # neighbouring lines hit together
     hit = hit[:, :-2] & hit[:, 1:-1] & hit[:, 2:]
+    if any_line:
+        hit = hit.any(axis=1, keepdims=True)
     filled = hit.copy()
     filled[1:-1] |= hit[:-2] & hit[2:]
     best = 0
@@ -310,6 +320,7 @@ def wide_surface_bands(
                 radius,
                 step,
                 counts,
+                any_line=True,
             )
             if occ < occupancy:
                 continue
