@@ -324,7 +324,9 @@ def engage_on_wall_faces(
     ``WALL_BAND_M`` above and below the shape's section, within ``radius + max(1 m,
     radius)`` of its centre (:func:`~pyheracles.supports.rings.wall_face_beside`).
     """
-    slabs: dict[float, tuple[Array, Array]] = {}
+    # per section height the slab's plan points sorted by x: each column takes its
+    # window by two binary searches, not a mask over the whole slab
+    slabs: dict[float, tuple[Array, Array, Array, NDArray[np.intp]]] = {}
     for sh in shapes:
         if sh["class"] != "column":
             continue
@@ -332,11 +334,15 @@ def engage_on_wall_faces(
         if h not in slabs:
             a, b = np.searchsorted(z_sorted, [h - WALL_BAND_M, h + WALL_BAND_M])
             idx = order[a:b]
-            slabs[h] = (p[idx, :2], np.abs(p[idx, 2] - h) <= sc.thickness / 2)
-        xy, thin = slabs[h]
+            perm = np.argsort(p[idx, 0], kind="stable")
+            idx = idx[perm]
+            slabs[h] = (p[idx, :2], np.abs(p[idx, 2] - h) <= sc.thickness / 2, p[idx, 0], perm)
+        xy, thin, xs, perm = slabs[h]
         c, r = np.asarray(sh["centre"], dtype=np.float64), float(sh["radius"])
         reach = r + max(1.0, r)
-        box = np.all(np.abs(xy - c) <= reach, axis=1)
+        a, b = np.searchsorted(xs, [c[0] - reach, c[0] + reach])
+        box = a + np.flatnonzero(np.abs(xy[a:b, 1] - c[1]) <= reach)
+        box = box[np.argsort(perm[box])]  # in the slab's own order (the face search samples)
         near = xy[box]
         dist = np.hypot(*(near - c).T)
         ring = near[thin[box] & (np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r))]
