@@ -171,6 +171,36 @@ def test_a_perfect_detection_scores_full_marks(small) -> None:
     assert not half["pass"]["count"] and "missed" in half["failure_modes"]
 
 
+def test_a_stump_lower_than_the_broken_column_rule_is_not_expected(small) -> None:
+    """Issue 12: "a broken column of 1.5 m or more is still a column".  Draw 26's ruin has
+    pier stumps 0.56 and 0.76 m high, which the step rightly leaves in the ruin; the
+    score counted them as missed supports.  A stump under the rule is left out of the
+    supports to find (and counted apart)."""
+    import copy
+
+    import pandas as pd
+
+    sim = copy.deepcopy(small)
+    res = sim.clouds["cloud"]
+    rows = _support_rows(sim)
+    stump = rows[0]
+    stump.update(broken=True, height_m=0.6)
+    kept = [r for r in rows if r is not stump]
+    found = np.where(res.outlier | (res.instance == stump["instance"]), 0, res.instance)
+    table = pd.DataFrame({
+        "instance": [r["instance"] for r in kept], "class": [r["class"] for r in kept],
+        "radius_m": [r["radius_mean_m"] for r in kept],
+        "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
+        "box_width_m": np.nan,
+    })  # fmt: skip
+    m = score_supports(sim, found, table)
+    assert m["n_stumps"] == 1 and m["n_supports_visible"] == len(rows) - 1
+    assert m["count_exact"] and m["class_all_right"] and "broken_missed" not in m["failure_modes"]
+    stump.update(height_m=1.6)  # a broken column of 1.6 m is a column to find
+    m = score_supports(sim, found, table)
+    assert m["n_stumps"] == 0 and not m["count_exact"]
+
+
 def test_engaged_column_shadows_the_wall_beside_it() -> None:
     s = Scene()
     add_wall(s, WallSpec((-5.0, 0.0), (1.0, 0.0), 10.0, 0.5, 0.0, 4.0))  # inner face y = 0

@@ -5,7 +5,9 @@ by point overlap (one-to-one, maximal shared points; outlier points left out
 of the scoring) and measures, per draw:
 
 * ``count_exact``: as many supports found as true supports visible (at least
-  :data:`MIN_VISIBLE_POINTS` points);
+  :data:`MIN_VISIBLE_POINTS` points) that are supports by issue 12's rule: a broken
+  support is one when it stands at least :data:`MIN_BROKEN_HEIGHT_M` tall (a
+  stump of a pier 0.56 m high in a ruin is not; ``n_stumps`` counts those left out);
 * ``class_all_right``: every visible true support matched to a found support
   of its class;
 * ``median_f1`` (target >= 0.95; an unmatched support has F1 0);
@@ -44,10 +46,15 @@ from pyheracles.evaluate import evaluate_objects
 from pyheracles.synthetic.families.simulation import Simulation
 from pyheracles.synthetic.families.supports_parts import SUPPORT_CLASSES, radius_at
 
-__all__ = ["MIN_VISIBLE_POINTS", "TARGETS", "score_supports"]
+__all__ = ["MIN_BROKEN_HEIGHT_M", "MIN_VISIBLE_POINTS", "TARGETS", "score_supports"]
 
 #: A true support with fewer (non-outlier) points is not expected to be found.
 MIN_VISIBLE_POINTS = 100
+
+#: A broken support lower than this (metres, floor to top) is not expected to be found:
+#: issue 12, "a broken column of 1.5 m or more is still a column"; the step's
+#: ``SupportParams.min_free_height_m``.
+MIN_BROKEN_HEIGHT_M = 1.5
 
 #: Targets of issue 12.
 TARGETS = {"median_f1": 0.95, "radius_err_m": 0.01, "tilt_err_deg": 0.3, "pier_box_err_m": 0.02}
@@ -95,7 +102,11 @@ def score_supports(
     ref = np.where(np.isin(res.instance, sup_ids), res.instance, 0).astype(np.int64)
     pred = np.asarray(found_instance, np.int64)
     n_ref = np.bincount(ref[valid], minlength=int(sup_ids.max(initial=0)) + 1)
-    visible = [int(i) for i in sup_ids if n_ref[i] >= MIN_VISIBLE_POINTS]
+    seen = [int(i) for i in sup_ids if n_ref[i] >= MIN_VISIBLE_POINTS]
+    stumps = [
+        i for i in seen if rows[i].get("broken") and rows[i]["height_m"] < MIN_BROKEN_HEIGHT_M
+    ]
+    visible = [i for i in seen if i not in stumps]
     ev = evaluate_objects(pred[valid], ref[valid])
     match = {
         int(r): (int(p[0]) if len(p) else 0)
@@ -168,6 +179,7 @@ def score_supports(
     out: dict[str, Any] = {
         "n_supports_true": len(rows),
         "n_supports_visible": len(visible),
+        "n_stumps": len(stumps),
         "n_supports_found": n_found,
         "count_exact": n_found == len(visible),
         "class_correct": class_ok,
