@@ -9,6 +9,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from pyheracles.complex.eaves import eave_points
 from pyheracles.complex.params import EXACT_LIMIT, ComplexParams
 from pyheracles.segment.euclidean import euclidean_clusters, voxel_clusters
 
@@ -219,6 +220,15 @@ def object_points(
             later = later[~porous[later]]
         later = later[(xyz[cand[later], 2] > top) & (xyz[cand[later], 2] <= raised)]
         _join_scattered(xyz, cand, keep, later, cand_in, solid, porous, reach, params)
+    if params.eave_tolerance_m is not None:
+        # beyond scatter_offset_m, scattered points join only where they run on the
+        # object's own roof surface outward (its eaves), linked to it as above
+        out = loose[~keep[loose] & ~cand_in[loose] & (xyz[cand[loose], 2] <= top)]
+        eave = eave_points(
+            xyz[cand[out]], xyz[cand[keep]], xyz[cand[~keep]], reach,
+            params.eave_tolerance_m,
+        )
+        _join_scattered(xyz, cand, keep, out[eave], cand_in, solid, porous, reach, params)
     return keep
 
 

@@ -126,6 +126,16 @@ class ComplexParams:
         the crown beside a shed.  Automatic: a quarter of the buffer.  On
         AHN3 tile 1 (buffer 1 m) any value from 0.15 to 0.3 m gives the same
         quality; half the buffer let hedges beside small sheds in.
+    eave_tolerance_m
+        Scattered points of the buffer ring beyond ``scatter_offset_m`` join an
+        object where they run on its own roof outward, an eave: within this
+        height of the plane fitted to the object's top surface beside them (a
+        tight fit, one roof face), no higher than the roof's edge beside them,
+        with nothing rough over them, and linked to the object (see
+        :func:`pyheracles.complex.eaves.eave_points`).  A neighbour's roof lies
+        off that plane, a hedge or a crown pokes over it.  AHN3 tile 1: 152 more
+        reference building points 0.25-1 m beyond the outlines, 49 unclassified
+        ones.  Metres; ``None`` turns this off.
     crown_rise_m
         A point of an object standing more than this above the median of its
         8 nearest points of the object in XY (within the clustering distance),
@@ -175,6 +185,7 @@ class ComplexParams:
     scatter_vote_share: float = 0.5
     scatter_vote_keep: float = 0.8
     outside_above_top_m: float | None = 1.0
+    eave_tolerance_m: float | None = 0.15
     crown_rise_m: float | None = 1.0
     crown_share: float = 0.2
     ground: str = "auto"
@@ -200,6 +211,8 @@ class ComplexParams:
             raise InputError(f"scatter_above_top_m must be >= 0, got {self.scatter_above_top_m}")
         if self.scatter_rise_m is not None and not self.scatter_rise_m >= 0:
             raise InputError(f"scatter_rise_m must be >= 0, got {self.scatter_rise_m}")
+        if self.eave_tolerance_m is not None and not self.eave_tolerance_m > 0:
+            raise InputError(f"eave_tolerance_m must be > 0, got {self.eave_tolerance_m}")
         if self.crown_rise_m is not None and not self.crown_rise_m >= 0:
             raise InputError(f"crown_rise_m must be >= 0, got {self.crown_rise_m}")
         if self.outside_above_top_m is not None and not self.outside_above_top_m >= 0:
