@@ -89,3 +89,18 @@ def test_stray_returns_in_one_bin_are_no_reveal() -> None:
     v, z = np.r_[jamb_v, stray_v], np.r_[jamb_z, stray_z]
     p = RevealParams()
     assert reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0)) == pytest.approx(0.10, abs=0.005)
+
+
+def test_a_scan_column_on_a_splayed_reveal_is_no_jamb() -> None:
+    """Church draw 7: a scanner's column of fixed azimuth meets a splayed reveal along
+    one vertical line, at one ``u`` and one depth, as sharp in ``u`` as a straight
+    reveal; it put heads and jambs of splayed windows 5-11 cm outside the opening.  A
+    straight reveal runs across the wall's depth from a face to the glass."""
+    rng = np.random.default_rng(2)
+    z = rng.uniform(1.0, 3.0, 50)
+    v = rng.normal(0.10, 0.002, 50)
+    column = rng.normal(-0.25, 0.003, 50)  # one depth: a line on the splay
+    straight = rng.uniform(-0.45, -0.25, 50)  # from the face to the glass
+    p = RevealParams()
+    assert np.isnan(reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0), column))
+    assert reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0), straight) == pytest.approx(0.10, abs=0.005)

@@ -44,6 +44,12 @@ class RevealParams:
         (0.1 m) tall over the heights searched (columns across the head's band):
         church draw 8's leaded light had 11 stray returns in three bins 0.37 m inside
         its jamb, above the contrast of a sparse band.
+    depth_m
+        A reveal's peak spreads over at least this depth across the wall (0.03 m, the
+        10th to 90th percentile): a straight reveal runs from a face to the glass
+        (at least 5 cm); a scanner's column of fixed azimuth meets a splayed reveal
+        along one vertical line, at one ``u`` and one depth (church draw 7: jambs of
+        splayed windows 5-10 cm outside the opening).
     inward_m
         Farthest an edge is looked for inside the grid's hole (0.4 m: the widest splay
         of a reveal, 0.35 m, and a cell).
@@ -58,13 +64,14 @@ class RevealParams:
     sharpness: float = 0.5
     row_m: float = 0.1
     coverage: float = 0.5
+    depth_m: float = 0.03
     inward_m: float = 0.4
     pane_m: float = 0.03
 
 
 def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
                 along: Array | None = None, extent: tuple[float, float] | None = None,
-                ) -> float:  # fmt: skip
+                depth: Array | None = None) -> float:  # fmt: skip
     """Position of a straight reveal seen edge on among coordinates ``v`` (m, growing
     into the opening), in ``[lo, hi)``: the median of the densest three bins of the
     innermost run of bins passing ``min_points`` and ``contrast`` (the narrowest
@@ -72,8 +79,9 @@ def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
     of the three holds ``sharpness`` of them and, given the points' other coordinate
     ``along`` and the ``extent`` searched along it, the peak's points reach
     ``coverage`` of its ``row_m`` rows (a reveal lines the opening along its length;
-    stray returns gathered in one bin do not, and the next run out is tried); NaN
-    when no run does."""
+    stray returns gathered in one bin do not, and the next run out is tried) and,
+    given their ``depth`` across the wall, spread over ``depth_m`` of it; NaN when
+    no run does."""
     inside = (v >= lo) & (v < hi)
     v = v[inside]
     if len(v) < p.min_points or hi <= lo:
@@ -97,6 +105,10 @@ def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
             seen = np.unique(np.floor((along[inside][on] - extent[0]) / p.row_m))
             if len(seen) < p.coverage * rows:
                 continue  # stray returns gathered at a few heights
+        if depth is not None:
+            d = depth[inside][on]
+            if np.percentile(d, 90) - np.percentile(d, 10) < p.depth_m:
+                continue  # one scan column on a splayed reveal (one depth), not a plane
         return float(np.median(v[on]))
     return float("nan")
 
@@ -136,20 +148,22 @@ def reveal_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: f
     if len(uz) < p.min_points:
         return nan, nan, nan, nan
     ok = pane_mask(uz, depth, u0, u1, z0, z1, p)
-    q = uz[ok]
+    q, dq = uz[ok], depth[ok]
     h = z1 - z0
     lo_z, hi_z = (z0 + 0.25 * h, z1 - 0.1 * h) if jambs is None else jambs
     band = (q[:, 1] > lo_z) & (q[:, 1] < hi_z)
     uc, zc = 0.5 * (u0 + u1), 0.5 * (z0 + z1)
-    zs = q[band, 1]
-    left = reveal_peak(q[band, 0], u0 - 2 * c, min(u0 + p.inward_m, uc), p, zs, (lo_z, hi_z))
+    zs, ds = q[band, 1], dq[band]
+    left = reveal_peak(q[band, 0], u0 - 2 * c, min(u0 + p.inward_m, uc), p, zs, (lo_z, hi_z),
+                       ds)  # fmt: skip
     right = -reveal_peak(-q[band, 0], -(u1 + 2 * c), -max(u1 - p.inward_m, uc), p, zs,
-                         (lo_z, hi_z))  # fmt: skip
+                         (lo_z, hi_z), ds)  # fmt: skip
     a = u0 if np.isnan(left) else left
     b = u1 if np.isnan(right) else right
     half = max(0.05 * (b - a), c)
     centre = np.abs(q[:, 0] - 0.5 * (a + b)) < half
     head = -reveal_peak(-q[centre, 1], -(z1 + 4 * c), -max(z1 - p.inward_m, zc), p,
-                        q[centre, 0], (0.5 * (a + b) - half, 0.5 * (a + b) + half))  # fmt: skip
+                        q[centre, 0], (0.5 * (a + b) - half, 0.5 * (a + b) + half),
+                        dq[centre])  # fmt: skip
     sill = nan  # its straight part faces up, out of sight of scanners below
     return left, right, sill, head
