@@ -90,3 +90,27 @@ def test_a_free_ring_is_not_engaged() -> None:
     # (a column standing in line with a wall's face, as at the end of a portico)
     near = _wall_beside(rng)
     assert wall_face_beside(np.vstack([ring, near]), ring, np.zeros(2), R, 0.03, rng) is None
+
+
+def test_a_scaffold_through_a_column_is_no_wall_face() -> None:
+    """Draw 46 (held out): scaffold standards and ledgers on a line through free columns
+    seen from one side passed for the wall they stand in.  A wall's face is a surface:
+    its points fill the slab's height wherever it is seen along it; tubes do not."""
+    rng = np.random.default_rng(46)
+    ring = _ring(180.0)
+    # a wall's face beside the column, with heights over the 0.6 m slab
+    wall = _wall_beside(rng)
+    wall_z = rng.uniform(0.0, 0.6, len(wall))
+    ring_z = rng.uniform(0.0, 0.6, len(ring))
+    around, up = np.vstack([ring, wall]), np.r_[ring_z, wall_z]
+    assert wall_face_beside(around, ring, np.zeros(2), R, 0.03, rng, up) is not None
+    # standards (vertical tubes) every 0.5 m and one ledger 0.4 m up on the same line
+    xs = np.r_[-1.5, -1.0, 1.0, 1.5]
+    std = np.c_[np.repeat(xs, 40), np.full(160, FACE_Y)] + rng.normal(0, 0.003, (160, 2))
+    std_z = np.tile(np.linspace(0.0, 0.6, 40), len(xs))
+    x = rng.uniform(0.9, 1.6, 80) * rng.choice([-1.0, 1.0], 80)
+    ledger = np.c_[x, np.full(80, FACE_Y)]
+    tubes = np.vstack([std, ledger])
+    tubes_z = np.r_[std_z, np.full(80, 0.4)]
+    around, up = np.vstack([ring, tubes]), np.r_[ring_z, tubes_z]
+    assert wall_face_beside(around, ring, np.zeros(2), R, 0.03, rng, up) is None

@@ -336,8 +336,9 @@ def engage_on_wall_faces(
             idx = order[a:b]
             perm = np.argsort(p[idx, 0], kind="stable")
             idx = idx[perm]
-            slabs[h] = (p[idx, :2], np.abs(p[idx, 2] - h) <= sc.thickness / 2, p[idx, 0], perm)
-        xy, thin, xs, perm = slabs[h]
+            slabs[h] = (p[idx, :3], np.abs(p[idx, 2] - h) <= sc.thickness / 2, p[idx, 0], perm)
+        xyz, thin, xs, perm = slabs[h]
+        xy = xyz[:, :2]
         c, r = np.asarray(sh["centre"], dtype=np.float64), float(sh["radius"])
         reach = r + max(1.0, r)
         a, b = np.searchsorted(xs, [c[0] - reach, c[0] + reach])
@@ -346,7 +347,9 @@ def engage_on_wall_faces(
         near = xy[box]
         dist = np.hypot(*(near - c).T)
         ring = near[thin[box] & (np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r))]
-        face = wall_face_beside(near[dist <= reach], ring, c, r, sc.tol, rng)
+        inside = dist <= reach
+        up = xyz[box[inside], 2] - (h - WALL_BAND_M)
+        face = wall_face_beside(near[inside], ring, c, r, sc.tol, rng, up)
         if face is None:
             continue
         n, d, face_rms = face
