@@ -9,6 +9,8 @@ to thresholds set by the floor and walls).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -229,3 +231,44 @@ def test_strip_of_a_gable_wall_shadowed_at_a_slant_is_a_wide_surface():
     members = [_grid((0.2, 1.4), (y, y + 0.15), 0.0, 0.015, rng) for y in (0.6, 1.8)]
     xyz, band_facet = _strip_in(np.vstack([face, *members]))
     assert not wide_surface_bands(build_tree(xyz), xyz, [band_facet])[0]
+
+
+def _strips_along_x(xyz: np.ndarray, y_edges: np.ndarray) -> list[StraightFacet]:
+    """Straight facets of the points on z = 0 with x > 0.25, one per strip of y, along x."""
+    out = []
+    for y0, y1 in itertools.pairwise(y_edges):
+        idx = np.flatnonzero((xyz[:, 0] > 0.25) & (xyz[:, 1] >= y0) & (xyz[:, 1] < y1))
+        pts = xyz[idx]
+        out.append(
+            StraightFacet(
+                index=idx,
+                normal=np.array([0.0, 0.0, 1.0]),
+                axis=np.array([1.0, 0.0, 0.0]),
+                centre=pts.mean(axis=0),
+                width=float(y1 - y0),
+                length=float(np.ptp(pts[:, 0])),
+                plane_rms=0.002,
+                parent=2,
+            )
+        )
+    return out
+
+
+def test_band_beside_a_surface_cut_into_strips_across_it_is_a_wide_surface():
+    """Roof seed 27: the gable wall beside its band under the boarding had been cut into
+    straight facets along other directions (strips between the shadows of the common
+    rafters); their points did not count beside the band, as a crossing member's
+    would not, and the band stayed a member's face.  Strips that are themselves
+    pieces of a wider surface count; members crossing the plane still do not."""
+    rng = np.random.default_rng(3)
+    band = _grid((-0.2, 0.2), (0.0, 2.4), 0.0, 0.015, rng)
+    wall = _grid((0.25, 1.4), (0.0, 2.4), 0.0, 0.015, rng)
+    xyz, band_facet = _strip_in(np.vstack([band, wall]))
+    strips = _strips_along_x(xyz, np.linspace(0.0, 2.4, 13))
+    wide = wide_surface_bands(build_tree(xyz), xyz, [band_facet, *strips])
+    assert wide.all()
+    # members crossing the band's plane, a metre apart: no surface beside the band
+    posts = [_grid((0.25, 1.4), (y, y + 0.17), 0.0, 0.015, rng) for y in (0.4, 1.4)]
+    xyz, band_facet = _strip_in(np.vstack([band, *posts]))
+    members = _strips_along_x(xyz, np.array([0.4, 0.57, 1.4, 1.57]))[::2]
+    assert not wide_surface_bands(build_tree(xyz), xyz, [band_facet, *members])[0]

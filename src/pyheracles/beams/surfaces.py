@@ -262,7 +262,11 @@ def wide_surface_bands(
         Points of another straight facet count only when its axis is parallel
         to the band's within this angle, degrees: the next strip of boarding
         beyond a rafter runs along the band, while the coplanar members of a
-        truss beside a tie (posts, rafters, struts) cross it.
+        truss beside a tie (posts, rafters, struts) cross it.  A facet found
+        to be a strip of a wider surface itself counts whatever its direction,
+        when it lies in the band's plane (a second look at the bands next to
+        such strips: a gable wall cut into strips across its band by the
+        shadows of the common rafters in front of it).
     depth_m
         The deepest member section, metres: a covered side does not make the
         band a strip when what lies between them within this depth is behind
@@ -288,11 +292,11 @@ def wide_surface_bands(
     cos_par = np.cos(np.radians(parallel_deg))
     probe = xyz[:: max(1, len(xyz) // 50000)]
     # what lies beside a covered edge: a point per 10 cm of length is enough
-    sparse_tree: cKDTree | None = None
-    for i, f in enumerate(facets):
-        parallel = np.append(np.abs(axes @ f.axis) >= cos_par, True)  # [-1]: in no facet
-        parallel[i] = False
-        counts = (owner, parallel)
+    sparse: list[cKDTree] = []
+
+    def strip_of_surface(i: int, ok: NDArray[np.bool_]) -> bool:
+        f = facets[i]
+        counts = (owner, ok)
         pts = xyz[f.index]
         across = np.cross(f.normal, f.axis)
         across /= np.linalg.norm(across)
@@ -305,7 +309,7 @@ def wide_surface_bands(
         width = max(window_m, 2.0 * float(s_hi - s_lo))
         start = 2.0 * radius
         if width <= start:
-            continue
+            return False
         offs = start + (np.arange(_N_ACROSS) + 0.5) * (width - start) / _N_ACROSS
         step = max(0.1, 2.0 * radius)
         front = None  # the room's side of the band's plane, when first needed
@@ -326,16 +330,45 @@ def wide_surface_bands(
                 continue
             if front is None:
                 front = room_side(probe, f.centre, f.normal, depth_m)
-            if sparse_tree is None:
-                sparse_tree = cKDTree(xyz[::PROUD_STRIDE])
+            if not sparse:
+                sparse.append(cKDTree(xyz[::PROUD_STRIDE]))
             window = (float(edge + sign * start), float(edge + sign * width))
             margin = max(0.5 * radius, PROUD_MARGIN_M)
             proud = front != 0 and stands_proud(
-                sparse_tree, f, front, window, (float(t_lo), float(t_hi)), depth_m, margin
+                sparse[0], f, front, window, (float(t_lo), float(t_hi)), depth_m, margin
             )
             if not proud:
-                out[i] = True
-                break
+                return True
+        return False
+
+    parallel = [np.append(np.abs(axes @ f.axis) >= cos_par, True) for f in facets]
+    for i in range(len(facets)):
+        ok = parallel[i].copy()  # [-1]: in no facet
+        ok[i] = False
+        out[i] = strip_of_surface(i, ok)
+    # the pieces of a surface cut along other directions (a gable wall beside its
+    # band, cut into strips by the shadows across it) are that surface, not members
+    # crossing the band's plane: a second look beside the bands next to them
+    if out.any() and not out.all():
+        lo = np.array([xyz[f.index].min(axis=0) for f in facets])
+        hi = np.array([xyz[f.index].max(axis=0) for f in facets])
+        wide = np.flatnonzero(out)
+        normals = np.array([f.normal for f in facets])
+        centres = np.array([f.centre for f in facets])
+        for i in np.flatnonzero(~out):
+            f = facets[i]
+            reach = max(window_m, 2.0 * f.width)
+            near = np.all((lo[wide] <= hi[i] + reach) & (hi[wide] >= lo[i] - reach), axis=1)
+            # in the band's plane (a surface going on, not a face across it)
+            near &= np.abs(normals[wide] @ f.normal) >= cos_par
+            near &= np.abs((centres[wide] - f.centre) @ f.normal) <= PROUD_MARGIN_M
+            near &= ~parallel[i][wide]
+            if not near.any():
+                continue
+            ok = parallel[i].copy()
+            ok[wide[near]] = True
+            ok[i] = False
+            out[i] = strip_of_surface(i, ok)
     return out
 
 
