@@ -104,3 +104,25 @@ def test_a_scan_column_on_a_splayed_reveal_is_no_jamb() -> None:
     p = RevealParams()
     assert np.isnan(reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0), column))
     assert reveal_peak(v, 0.0, 0.6, p, z, (1.0, 3.0), straight) == pytest.approx(0.10, abs=0.005)
+
+
+@pytest.mark.slow  # a church draw: about 35 s
+def test_a_sparse_face_narrows_the_reveals_jamb_by_more_than_its_spacing_only() -> None:
+    """Church draw 3, north wall, window 13 (outer face 9-15 cm between points): the
+    faces put its jambs 2.4 and 2.7 cm inside the straight reveals, and the innermost
+    jambs made it 5.1 cm narrow; a face's jamb is its innermost points and part of the
+    gap to the next, as uncertain as its spacing."""
+    from church_walls import church_walls
+
+    r, objs = church_walls(3)
+    (o,) = [o for o in objs if o.get("instance") == 13 and o["class"] == "window"]
+    tw = next(t for t in objs if t["class"] == "wall" and t["name"] == o["wall"])
+    n = np.asarray(tw["outer_plane"]["normal"])
+    bc = np.asarray(o["box_corners_m"])
+    w = max((w for w in r.walls if any(abs(f.normal @ n) > 0.999 for f in w.faces)
+             and abs((bc.mean(axis=0) - w.origin) @ w.normal) < 1.0),
+            key=lambda w: w.n_points)  # fmt: skip
+    uc = float((bc.mean(axis=0) - w.origin) @ w.u_axis)
+    b = min(w.openings, key=lambda q: abs(0.5 * (q.u_min + q.u_max) - uc)
+            + abs(0.5 * (q.z_min + q.z_max) - bc[:, 2].mean()))  # fmt: skip
+    assert b.width_m == pytest.approx(o["width_m"], abs=0.03)

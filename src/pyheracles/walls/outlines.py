@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening, WallParams
-from pyheracles.walls.openings import merge_lights, refine_edges
+from pyheracles.walls.openings import face_spacing, merge_lights, refine_edges
 from pyheracles.walls.reveals import reveal_edges
 
 __all__ = [
@@ -181,9 +181,13 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 box &= (uz_all[:, 1] > grid[2] - 0.5) & (uz_all[:, 1] < grid[3] + 0.5)
                 found = reveal_edges(uz_all[box], depth[box], *grid, c, jambs)  # type: ignore[index]
                 # the opening is where every surface is open: the innermost jambs of
-                # the faces' and the reveals'; the head where the soffit stands
-                u0 = u0 if np.isnan(found[0]) else max(u0, found[0])
-                u1 = u1 if np.isnan(found[1]) else min(u1, found[1])
+                # the faces' and the reveals' (a face's jamb, its innermost points and
+                # part of the gap to the next, narrows a reveal's by more than its
+                # point spacing only); the head where the soffit stands
+                sp = max(face_spacing(w_uz[local][face_of[local] == f])
+                         for f in np.unique(face_of[local]))  # fmt: skip
+                u0 = u0 if np.isnan(found[0]) or u0 - found[0] > sp else found[0]
+                u1 = u1 if np.isnan(found[1]) or found[1] - u1 > sp else found[1]
                 z1 = z1 if np.isnan(found[3]) else found[3]
             if on_floor:  # a door: the opening through the wall starts at the highest
                 # face foot under it (the floor inside above a step down outside)
