@@ -196,6 +196,15 @@ def test_a_stump_lower_than_the_broken_column_rule_is_not_expected(small) -> Non
     m = score_supports(sim, found, table)
     assert m["n_stumps"] == 1 and m["n_supports_visible"] == len(rows) - 1
     assert m["count_exact"] and m["class_all_right"] and "broken_missed" not in m["failure_modes"]
+    # a stump found anyway is neither missed nor a false support
+    table_all = pd.DataFrame({
+        "instance": [r["instance"] for r in rows], "class": [r["class"] for r in rows],
+        "radius_m": [r["radius_mean_m"] for r in rows],
+        "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
+        "box_width_m": np.nan,
+    })  # fmt: skip
+    m = score_supports(sim, np.where(res.outlier, 0, res.instance), table_all)
+    assert m["count_exact"] and m["n_supports_found"] == len(rows) - 1
     stump.update(height_m=1.6)  # a broken column of 1.6 m is a column to find
     m = score_supports(sim, found, table)
     assert m["n_stumps"] == 0 and not m["count_exact"]

@@ -7,7 +7,8 @@ of the scoring) and measures, per draw:
 * ``count_exact``: as many supports found as true supports visible (at least
   :data:`MIN_VISIBLE_POINTS` points) that are supports by issue 12's rule: a broken
   support is one when it stands at least :data:`MIN_BROKEN_HEIGHT_M` tall (a
-  stump of a pier 0.56 m high in a ruin is not; ``n_stumps`` counts those left out);
+  stump of a pier 0.56 m high in a ruin is not; ``n_stumps`` counts those left out, and
+  a found support matched to one is not counted as found);
 * ``class_all_right``: every visible true support matched to a found support
   of its class;
 * ``median_f1`` (target >= 0.95; an unmatched support has F1 0);
@@ -175,7 +176,9 @@ def score_supports(
             box_err[i] = float(np.max(np.abs(np.subtract(got, true))))
     failures += _overlap_failures(sim, pred, ref, valid, visible, match, pclass, attic_mask)
     f1s = np.array([f1.get(i, 0.0) if np.isfinite(f1.get(i, 0.0)) else 0.0 for i in visible])
-    n_found = len(found_objects)
+    # a stump found anyway is neither a support missed nor a false one
+    stumps_found = {match[i] for i in stumps if match.get(i, 0)}
+    n_found = len(found_objects) - len(stumps_found)
     out: dict[str, Any] = {
         "n_supports_true": len(rows),
         "n_supports_visible": len(visible),
