@@ -183,9 +183,11 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 # the opening is where every surface is open: the innermost jambs of
                 # the faces' and the reveals' (a face's jamb, its innermost points and
                 # part of the gap to the next, narrows a reveal's by more than its
-                # point spacing only); the head where the soffit stands
-                sp = max(face_spacing(w_uz[local][face_of[local] == f])
-                         for f in np.unique(face_of[local]))  # fmt: skip
+                # point spacing, at most two cells, only: across a mullion of a sparse
+                # face the next light's jamb is a reveal too); the head where the
+                # soffit stands
+                sp = min(2 * c, max(face_spacing(w_uz[local][face_of[local] == f])
+                                    for f in np.unique(face_of[local])))  # fmt: skip
                 u0 = u0 if np.isnan(found[0]) or u0 - found[0] > sp else found[0]
                 u1 = u1 if np.isnan(found[1]) or found[1] - u1 > sp else found[1]
                 z1 = z1 if np.isnan(found[3]) else found[3]
