@@ -152,18 +152,23 @@ def test_reference_is_consistent(small) -> None:
     assert abs(np.median(rho) - r["radius_mean_m"]) < 0.02
 
 
-def test_a_perfect_detection_scores_full_marks(small) -> None:
+def _perfect_table(rows: list[dict]):
+    """An objects table that finds the true supports ``rows`` exactly."""
     import pandas as pd
 
-    res = small.clouds["cloud"]
-    rows = _support_rows(small)
-    found = np.where(res.outlier, 0, res.instance)
-    table = pd.DataFrame({
+    return pd.DataFrame({
         "instance": [r["instance"] for r in rows], "class": [r["class"] for r in rows],
         "radius_m": [r["radius_mean_m"] for r in rows],
         "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
         "box_width_m": np.nan,
     })  # fmt: skip
+
+
+def test_a_perfect_detection_scores_full_marks(small) -> None:
+    res = small.clouds["cloud"]
+    rows = _support_rows(small)
+    found = np.where(res.outlier, 0, res.instance)
+    table = _perfect_table(rows)
     m = score_supports(small, found, table)
     assert m["count_exact"] and m["class_all_right"] and m["median_f1"] == 1.0
     assert m["pass"]["main"] and m["failure_modes"] == []
@@ -178,8 +183,6 @@ def test_a_stump_lower_than_the_broken_column_rule_is_not_expected(small) -> Non
     supports to find (and counted apart)."""
     import copy
 
-    import pandas as pd
-
     sim = copy.deepcopy(small)
     res = sim.clouds["cloud"]
     rows = _support_rows(sim)
@@ -187,26 +190,14 @@ def test_a_stump_lower_than_the_broken_column_rule_is_not_expected(small) -> Non
     stump.update(broken=True, height_m=0.6)
     kept = [r for r in rows if r is not stump]
     found = np.where(res.outlier | (res.instance == stump["instance"]), 0, res.instance)
-    table = pd.DataFrame({
-        "instance": [r["instance"] for r in kept], "class": [r["class"] for r in kept],
-        "radius_m": [r["radius_mean_m"] for r in kept],
-        "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
-        "box_width_m": np.nan,
-    })  # fmt: skip
-    m = score_supports(sim, found, table)
+    m = score_supports(sim, found, _perfect_table(kept))
     assert m["n_stumps"] == 1 and m["n_supports_visible"] == len(rows) - 1
     assert m["count_exact"] and m["class_all_right"] and "broken_missed" not in m["failure_modes"]
     # a stump found anyway is neither missed nor a false support
-    table_all = pd.DataFrame({
-        "instance": [r["instance"] for r in rows], "class": [r["class"] for r in rows],
-        "radius_m": [r["radius_mean_m"] for r in rows],
-        "axis_x": 0.0, "axis_y": 0.0, "axis_z": 1.0, "box_length_m": np.nan,
-        "box_width_m": np.nan,
-    })  # fmt: skip
-    m = score_supports(sim, np.where(res.outlier, 0, res.instance), table_all)
+    m = score_supports(sim, np.where(res.outlier, 0, res.instance), _perfect_table(rows))
     assert m["count_exact"] and m["n_supports_found"] == len(rows) - 1
     stump.update(height_m=1.6)  # a broken column of 1.6 m is a column to find
-    m = score_supports(sim, found, table)
+    m = score_supports(sim, found, _perfect_table(kept))
     assert m["n_stumps"] == 0 and not m["count_exact"]
 
 
