@@ -366,6 +366,28 @@ def twin_rings(
     return a, b
 
 
+def pair_lines(p: Array, trials: int, rng: np.random.Generator) -> tuple[Array, Array]:
+    """Lines through ``trials`` random pairs of the points ``p`` (a line search's
+    candidates): unit normals ``(K, 2)`` and offsets ``(K,)`` with ``n . x = d`` on the
+    line; pairs of coincident points are left out."""
+    idx = rng.integers(0, len(p), size=(trials, 2))
+    dvec = p[idx[:, 1]] - p[idx[:, 0]]
+    nrm = np.c_[-dvec[:, 1], dvec[:, 0]]
+    ln = np.linalg.norm(nrm, axis=1)
+    good = ln > 1e-6
+    nrm = nrm[good] / ln[good, None]
+    return nrm, np.einsum("ij,ij->i", nrm, p[idx[good, 0]])
+
+
+def refit_line(q: Array) -> tuple[Array, float, Array]:
+    """Least-squares line through the points ``q`` (a search's inliers): unit normal
+    ``n``, offset ``d`` (``n . x = d`` on it) and the points' centroid."""
+    m = q.mean(axis=0)
+    _, vec = np.linalg.eigh((q - m).T @ (q - m))
+    n = vec[:, 0]
+    return n, float(n @ m), m
+
+
 def engaged_on_wall(
     xy: Array, params: SupportParams, tol: float, distance: float, rng: np.random.Generator
 ) -> list[tuple[Array, float, Array, float]]:
@@ -380,25 +402,14 @@ def engaged_on_wall(
         if len(rest) < 20:
             break
         p = xy[rest]
-        idx = rng.integers(0, len(p), size=(msac.max_trials, 2))
-        dvec = p[idx[:, 1]] - p[idx[:, 0]]
-        nrm = np.c_[-dvec[:, 1], dvec[:, 0]]
-        ln = np.linalg.norm(nrm, axis=1)
-        good = ln > 1e-6
-        nrm = nrm[good] / ln[good, None]
-        off = np.einsum("ij,ij->i", nrm, p[idx[good, 0]])
+        nrm, off = pair_lines(p, msac.max_trials, rng)
         sub = p if len(p) <= 3000 else p[rng.choice(len(p), 3000, replace=False)]
         cost = np.minimum((sub @ nrm.T - off) ** 2, tol**2).sum(axis=0)
         b = int(np.argmin(cost))
         inl = np.abs(p @ nrm[b] - off[b]) <= tol
         if inl.sum() < max(20, 0.02 * len(xy)):
             break
-        # refine the face line on its inliers
-        q = p[inl]
-        m = q.mean(axis=0)
-        _, v = np.linalg.eigh((q - m).T @ (q - m))
-        n = v[:, 0]
-        d = float(n @ m)
+        n, d, _ = refit_line(p[inl])  # the face line on its inliers
         inl = np.abs(p @ n - d) <= tol
         # a face is continuous: its inliers fill most of their span along the line (the
         # aligned apexes of several half-columns are not a face)
@@ -537,16 +548,7 @@ def wall_face_beside(
     out = around[outside]
     if len(out) < WALL_FACE_POINTS or len(ring) < 8:
         return None
-    trials = 200
-    idx = rng.integers(0, len(out), size=(trials, 2))
-    dvec = out[idx[:, 1]] - out[idx[:, 0]]
-    nrm = np.c_[-dvec[:, 1], dvec[:, 0]]
-    ln = np.linalg.norm(nrm, axis=1)
-    good = ln > 1e-6
-    if not good.any():
-        return None
-    nrm = nrm[good] / ln[good, None]
-    off = np.einsum("ij,ij->i", nrm, out[idx[good, 0]])
+    nrm, off = pair_lines(out, 200, rng)
     # only lines through the column's reach can be the face it stands against
     near = np.abs(nrm @ centre - off) <= 0.6 * radius + tol
     if not near.any():
@@ -557,11 +559,7 @@ def wall_face_beside(
     inl = np.abs(out @ nrm[b] - off[b]) <= tol
     if inl.sum() < WALL_FACE_POINTS:
         return None
-    q = out[inl]
-    m = q.mean(axis=0)
-    _, vec = np.linalg.eigh((q - m).T @ (q - m))
-    n = vec[:, 0]
-    d = float(n @ m)
+    n, d, m = refit_line(out[inl])
     on = np.abs(out @ n - d) <= tol
     face = out[on]
     if len(face) < WALL_FACE_POINTS or abs(float(n @ centre - d)) > 0.6 * radius + tol:
