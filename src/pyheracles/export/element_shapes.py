@@ -163,9 +163,10 @@ def part_slabs(
         if i == n or abs(reach[i] - float(np.median(reach[first:i]))) > step:
             groups.append((first, i))
             first = i
-    for g0, g1 in groups:
+    per_layer = np.bincount(lay, minlength=n)
+    for g0, g1 in _merge_sparse_runs(groups, reach, per_layer, 3 * min_points):
         m = (lay >= g0) & (lay < g1)
-        if m.sum() < 3 * min_points:
+        if m.sum() < 3:
             continue
         if m.sum() < 4 * min_points * sectors:  # sparse: the hull of the points, less
             ring = _hull(q[m], noise)  # the noise (each point is on the surface)
@@ -186,6 +187,37 @@ def part_slabs(
         ring = np.asarray(ring_l)
         out.append((ring, float(edges[g0]), float(edges[g1])))
     return out
+
+
+def _merge_sparse_runs(
+    runs: list[tuple[int, int]], reach: Array, per_layer: NDArray[np.intp], min_count: int
+) -> list[tuple[int, int]]:
+    """Runs of layers, each run of fewer than ``min_count`` points joined to a neighbour.
+
+    On a sparse support (a few scan lines across its plinth or capital) every 3 cm layer
+    has its own reach, each run holds a handful of points, and dropping such runs left
+    the part out of the body (a column's 4-30 capital or plinth points 10-17 cm from its
+    solid).  A sparse run joins the adjacent run whose median reach is nearest its own,
+    the sparsest first, until every run holds ``min_count`` points or one run is left.
+    """
+    runs = list(runs)
+
+    def count(r: tuple[int, int]) -> int:
+        return int(per_layer[r[0] : r[1]].sum())
+
+    def level(r: tuple[int, int]) -> float:
+        return float(np.median(reach[r[0] : r[1]]))
+
+    while len(runs) > 1:
+        counts = [count(r) for r in runs]
+        i = int(np.argmin(counts))
+        if counts[i] >= min_count:
+            break
+        sides = [j for j in (i - 1, i + 1) if 0 <= j < len(runs)]
+        j = min(sides, key=lambda s: abs(level(runs[s]) - level(runs[i])))
+        a, b = min(i, j), max(i, j)
+        runs[a : b + 1] = [(runs[a][0], runs[b][1])]
+    return runs
 
 
 def _hull(q: Array, inset: float) -> Array | None:
