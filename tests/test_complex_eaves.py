@@ -133,8 +133,11 @@ def test_ahn3_eaves_beyond_the_outline_join_their_buildings(shared_data: Path) -
         f1 = f1[np.isfinite(f1)]
         return int((pred[ring] == ref[ring]).sum()), float(np.median(f1)), float(np.mean(f1 >= 0.9))
 
-    taken_off, median_off, share_off = run(ComplexParams(ground="auto", eave_tolerance_m=None))
-    taken, median, share = run(ComplexParams(ground="auto"))
+    # the rule's own effect, measured before the clutter rule (test_complex_clutter.py),
+    # which raises the median on its own (with both: 0.9807 -> 0.9815)
+    base = ComplexParams(ground="auto", clutter_height_m=None)
+    taken_off, median_off, share_off = run(replace(base, eave_tolerance_m=None))
+    taken, median, share = run(base)
     assert taken >= taken_off + 100
     assert median > median_off + 0.001
     assert share >= share_off

@@ -136,6 +136,18 @@ class ComplexParams:
         off that plane, a hedge or a crown pokes over it.  AHN3 tile 1: 152 more
         reference building points 0.25-1 m beyond the outlines, 49 unclassified
         ones.  Metres; ``None`` turns this off.
+    clutter_height_m
+        A group of an object's points beyond ``scatter_offset_m`` outside its polygon
+        (single linkage at the clustering distance), reaching beyond half the buffer,
+        whose top stands less than this over the terrain and at least 1 m under the
+        object beside it (itself at least this tall), and which holds no ground
+        released as the object's platform, is clutter standing beside it (parked cars
+        and bicycles, bins, hedges, terrain the ground filter left out): it goes back
+        to the pool (see :func:`pyheracles.complex.clutter.clutter_points`).  About a
+        person's height: a canopy or an annex roof one walks under stands higher.
+        AHN3 tile 1: of the 360 points the objects took more than 0.25 m out and under
+        2 m, 35 are building in the reference; the rule gives back 198 of them, 8 of
+        those building.  Metres; ``None`` turns this off.
     crown_rise_m
         A point of an object standing more than this above the median of its
         8 nearest points of the object in XY (within the clustering distance),
@@ -186,6 +198,7 @@ class ComplexParams:
     scatter_vote_keep: float = 0.8
     outside_above_top_m: float | None = 1.0
     eave_tolerance_m: float | None = 0.15
+    clutter_height_m: float | None = 2.0
     crown_rise_m: float | None = 1.0
     crown_share: float = 0.2
     ground: str = "auto"
@@ -213,6 +226,8 @@ class ComplexParams:
             raise InputError(f"scatter_rise_m must be >= 0, got {self.scatter_rise_m}")
         if self.eave_tolerance_m is not None and not self.eave_tolerance_m > 0:
             raise InputError(f"eave_tolerance_m must be > 0, got {self.eave_tolerance_m}")
+        if self.clutter_height_m is not None and not self.clutter_height_m > 0:
+            raise InputError(f"clutter_height_m must be > 0, got {self.clutter_height_m}")
         if self.crown_rise_m is not None and not self.crown_rise_m >= 0:
             raise InputError(f"crown_rise_m must be >= 0, got {self.crown_rise_m}")
         if self.outside_above_top_m is not None and not self.outside_above_top_m >= 0:

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from pyheracles.cloud import PointCloud
 from pyheracles.complex.clusters import hull, object_points, porous_points, scattered_points
+from pyheracles.complex.clutter import clutter_points, terrain_under
 from pyheracles.complex.cookie import GridIndex, claims, footprints_of, nearest_layer, to_local
 from pyheracles.complex.crowns import crown_points
 from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
@@ -85,6 +86,16 @@ class _Site:
     instance: NDArray[np.int32]
     class_id: NDArray[np.uint8]
     elsewhere: dict[str, NDArray[np.bool_]]
+    released: NDArray[np.bool_]
+    ground_tree: Any = None
+
+    def terrain(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Terrain height under the positions ``xy`` (see :func:`terrain_under`)."""
+        if self.ground_tree is None and self.ground.any():
+            from scipy.spatial import cKDTree
+
+            self.ground_tree = cKDTree(self.xyz[self.ground, :2])
+        return terrain_under(self.xyz[self.ground], xy, self.ground_tree)
 
 
 def _segment_layer(
@@ -130,6 +141,8 @@ def _segment_layer(
         if rp.crown_rise_m is not None and keep.sum() >= 3:
             crown = _crowns(site, cand[keep], cand_dist[keep] > 0.0, buffered[k], rp)
             keep[np.flatnonzero(keep)[crown]] = False
+        if rp.clutter_height_m is not None and keep.any():
+            keep[_clutter(site, cand, cand_dist, keep, rp)] = False
         # points of the buffer ring nearer to another layer's feature are left to it
         # (they linked the object's clusters all the same)
         keep &= ~site.elsewhere[name][cand]
@@ -194,6 +207,34 @@ def _crowns(
         site.xyz, members, off, radius, float(rp.crown_rise_m),  # type: ignore[arg-type]
         rp.crown_share, outside=outside, under=under,
     )  # fmt: skip
+
+
+def _clutter(
+    site: _Site,
+    cand: NDArray[np.int64],
+    cand_dist: NDArray[np.float64],
+    keep: NDArray[np.bool_],
+    rp: ComplexParams,
+) -> NDArray[np.int64]:
+    """Positions in ``cand`` of the kept points that are low clutter beside the object.
+
+    See :func:`clutter_points`: the ring is beyond ``scatter_offset_m`` (the digitising
+    tolerance), far is beyond half the buffer (as in
+    :func:`pyheracles.complex.clusters.select_clusters`), the platforms are the ground
+    points released in the footprints.
+    """
+    kept = np.flatnonzero(keep)
+    members = cand[kept]
+    dist = cand_dist[kept]
+    ring = dist > float(rp.scatter_offset_m)  # type: ignore[arg-type]
+    far = dist > 0.5 * float(rp.buffer_m)  # type: ignore[arg-type]
+    if not far.any():
+        return np.zeros(0, dtype=np.int64)
+    clutter = clutter_points(
+        site.xyz[members], ring, far, dist == 0.0, site.terrain, site.released[members],
+        float(rp.cluster_distance_m), float(rp.clutter_height_m),  # type: ignore[arg-type]
+    )  # fmt: skip
+    return kept[clutter]
 
 
 def _tops(
@@ -279,9 +320,11 @@ def segment_complex(
     ]
     through = pass_through_of(cloud.attributes)  # the echoes, for the ground and foliage
     ground = ground_mask(cloud, rp, max(sizes) if sizes else 20.0, through)
+    released = np.zeros(n, dtype=bool)
     if rp.raised_ground_m is not None and rp.ground != "class" and ground.any():
         # platforms, plinths, steps and low walls are the features', not terrain
-        ground = ground & ~raised_ground(layers, xyz, ground, rp, spacing, cloud)
+        released = ground & raised_ground(layers, xyz, ground, rp, spacing, cloud)
+        ground = ground & ~released
     timings["ground"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -325,6 +368,7 @@ def segment_complex(
         instance=np.zeros(n, dtype=np.int32),
         class_id=np.zeros(n, dtype=np.uint8),
         elsewhere=elsewhere,
+        released=released,
     )
     classes: dict[int, str] = {}
     rows: list[dict[str, Any]] = []
