@@ -259,6 +259,7 @@ def detect_supports_checked(
                 bool(sh.get("carries", True)),
                 float(sh.get("carried_z", np.inf)),
                 float(sh.get("overhead", 0.0)),
+                bool(sh.get("reaches", sh.get("carries", True))),
             )
         )
     thin = thin_free_columns(rows, [m[1] for m in members])
@@ -270,11 +271,11 @@ def detect_supports_checked(
         )
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
-    carries, tops, covers = ([m[j] for m in members] for j in (1, 2, 3))
-    low = low_carriers(rows, carries, tops) | covered_free_columns(rows, carries, covers)
+    carries, tops, covers, reach = ([m[j] for m in members] for j in (1, 2, 3, 4))
+    low = low_carriers(rows, carries, tops) | covered_free_columns(rows, reach, covers)
     if low:
         notes.append(
-            f"{len(low)} round candidate{'s' if len(low) > 1 else ''} ending lower than "
+            f"{len(low)} candidate{'s' if len(low) > 1 else ''} ending lower than "
             f"{LOW_CARRY_SHARE:g} x the way up to where the other supports carry, or "
             "under something they do not carry in a ruin (the stems of pulpits under "
             "their tubs, posts under boards): not supports"
@@ -437,7 +438,10 @@ OVERHEAD_SHARE = 0.5
 def covered_free_columns(rows: list[dict], carries: list[bool], overhead: list[float]) -> set[int]:
     """Indices of the columns that carry nothing with something resting over them, in a
     ruin (where fewer than half the supports carry; in a standing building
-    :func:`low_carriers` judges them by their height).
+    :func:`low_carriers` judges them by their height).  ``carries``: whether each
+    carries what it reaches (:func:`~pyheracles.supports.cookies.reaches_carried`): a
+    post ending 1 m under its pulpit's tub, whose rim was found over it, carries
+    nothing (draw 26).
 
     A broken column's top is open to the sky; a column carrying nothing whose top has
     something round it in ``OVERHEAD_SHARE`` of the sectors just above
