@@ -126,28 +126,30 @@ def clutter_points(
     """
     out = np.zeros(len(xyz), dtype=bool)
     at = np.flatnonzero(ring)
-    if len(at) == 0 or not inside.any():
-        return out
-    height = xyz[at, 2] - terrain(xyz[at, :2])
-    at, height = at[np.isfinite(height)], height[np.isfinite(height)]
-    if len(at) == 0:
+    if not far[at].any() or not inside.any():
         return out
     from scipy.spatial import cKDTree
 
     labels = euclidean_clusters(xyz[at], link_m, 1)
     n = int(labels.max()) + 1
-    over = np.full(n, -np.inf)  # the group's highest point over the terrain under it
-    np.maximum.at(over, labels, height)
-    reach = np.zeros(n, dtype=bool)
-    reach[labels[far[at]]] = True
-    cand = (over < low_m) & reach
+    cand = np.zeros(n, dtype=bool)
+    cand[labels[far[at]]] = True  # the group reaches beyond half the buffer
     cand[labels[platform[at]]] = False
     if not cand.any():
         return out
     use = cand[labels]
+    pts = at[use]
+    height = xyz[pts, 2] - terrain(xyz[pts, :2])
+    over = np.full(n, -np.inf)  # the group's highest point over the terrain under it
+    np.maximum.at(over, labels[use], np.where(np.isfinite(height), height, np.inf))
+    cand &= over < low_m
+    if not cand.any():
+        return out
+    use = cand[labels]
+    pts = at[use]
     inner = xyz[inside]
     k = min(SURFACE_NEIGHBOURS, len(inner))
-    _, idx = cKDTree(inner[:, :2]).query(xyz[at[use], :2], k=k)
+    _, idx = cKDTree(inner[:, :2]).query(xyz[pts, :2], k=k)
     idx = np.asarray(idx).reshape(-1, k)
     top = idx[np.arange(len(idx)), np.argmax(inner[idx, 2], axis=1)]  # highest beside
     top, back = np.unique(top, return_inverse=True)

@@ -87,15 +87,25 @@ class _Site:
     class_id: NDArray[np.uint8]
     elsewhere: dict[str, NDArray[np.bool_]]
     released: NDArray[np.bool_]
-    ground_tree: Any = None
 
     def terrain(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Terrain height under the positions ``xy`` (see :func:`terrain_under`)."""
-        if self.ground_tree is None and self.ground.any():
-            from scipy.spatial import cKDTree
+        """Terrain height under the positions ``xy`` (see :func:`terrain_under`), from the
+        ground points within :data:`TERRAIN_REACH_M` of their bounding box."""
+        if len(xy) == 0:
+            return np.zeros(0)
+        lo = xy.min(axis=0) - TERRAIN_REACH_M
+        hi = xy.max(axis=0) + TERRAIN_REACH_M
+        near = self.index.query_box(lo[0], lo[1], hi[0], hi[1])
+        near = near[self.ground[near]]
+        # a median of the nearest few needs no dense survey's every point
+        return terrain_under(self.xyz[near[:: max(1, len(near) // TERRAIN_SAMPLE)]], xy)
 
-            self.ground_tree = cKDTree(self.xyz[self.ground, :2])
-        return terrain_under(self.xyz[self.ground], xy, self.ground_tree)
+
+#: Reach of the ground points that make the terrain under an object's points, metres
+#: (as its ground level's, :func:`ground_level`, with a 1 m buffer).
+TERRAIN_REACH_M = 6.0
+#: Ground points used at most for the terrain under an object's points.
+TERRAIN_SAMPLE = 4000
 
 
 def _segment_layer(
