@@ -15,7 +15,10 @@
    joint, wholly below the frame's bottom: timber on the floor), and so is a
    horizontal timber at the frame's bottom joined to no inclined or vertical
    beam and shorter than most of the frame along it (:func:`loose`: timber
-   stored on the floor next to a tie beam), and so is the strip of a wall
+   stored on the floor next to a tie beam), and so is a plumb beam standing
+   on the floor apart from the main frame and joined at its lower half only
+   (:func:`idle_standing`: a chimney; what only it held is judged without
+   it), and so is the strip of a wall
    head a plate rests on (:func:`bearing`: its top level with the underside
    of a parallel beam laid along it);
 3. a role per beam from orientation, height, place and joints
@@ -48,6 +51,7 @@ __all__ = [
     "analyse_frame",
     "bearing",
     "frame_members",
+    "idle_standing",
     "leaning",
     "loose",
     "section_half_height",
@@ -288,17 +292,25 @@ def loose(
     """Beams of the frame that are timber lying loose at its bottom (see ``span_share``).
 
     Horizontal (below ``roles.horizontal_deg``), the underside within one of
-    its sections of the bottom of the frame's horizontal beams, joined to no beam inclined more than
+    its sections of the floor, joined to no beam inclined more than
     ``joints.inclined_deg``, and shorter than ``span_share`` of the extent of
-    the frame's other beams along its axis.
+    the frame's other beams along its axis.  The floor is the lower of the
+    bottoms of the frame's horizontal beams and of all the horizontal beams:
+    timber the frame no longer holds still lies on it (roof seed 5: planks at
+    a chimney's foot; the tie beams, 1.1 m up, are no floor).
     """
     out = np.zeros(len(beams), bool)
     incl = np.array([b.inclination_deg for b in beams])
     flat = in_frame & (incl <= p.roles.horizontal_deg)
     if in_frame.sum() < 2 or not flat.any():
         return out
-    # the bottom of the horizontal beams (a post's or a chimney's foot is lower)
-    bottom, _ = frame_levels(beams, flat, p.roles)
+    # the bottom of the horizontal beams (a post's or a chimney's foot is lower): the
+    # floor where timber lies, whether the frame holds it or it was left out already
+    # (over a tie beam high above the floor, the ties are not where loose timber lies)
+    bottom = min(
+        frame_levels(beams, flat, p.roles)[0],
+        frame_levels(beams, incl <= p.roles.horizontal_deg, p.roles)[0],
+    )
     rising = incl >= p.joints.inclined_deg
     corners = np.array([b.corners() for b in beams])
     for i, b in enumerate(beams):
@@ -393,6 +405,39 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     return out
 
 
+def idle_standing(
+    beams: list[BeamCuboid],
+    joints: list[Joint],
+    apart: NDArray[np.bool_],
+    bottom: float,
+    p: FrameParams,
+) -> NDArray[np.bool_]:
+    """Plumb beams apart from the frame, standing on its bottom and carrying nothing.
+
+    A post carries what is joined at its head (a tie, a collar, a purlin, the
+    ridge); one that stands (at least ``plumb_deg``) with its foot no higher
+    than the frame's bottom (within ``joints.contact_m``), is not joined to
+    the frame (``apart``) and has no joint in its upper half is a stack of
+    masonry from the floor (a chimney; roof seed 5: a 0.49 m stack with a
+    pile of planks lying against its foot, the two a group of their own) or a
+    prop stored upright, not a member.
+    """
+    out = np.zeros(len(beams), bool)
+    for i, b in enumerate(beams):
+        if not apart[i] or b.inclination_deg < p.plumb_deg:
+            continue
+        foot = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        if foot > bottom + p.joints.contact_m:
+            continue
+        low_end = 0.0 if b.axis[2] >= 0 else 1.0
+        out[i] = all(
+            abs(jt.at[jt.members.index(i + 1)] - low_end) <= 0.5
+            for jt in joints
+            if i + 1 in jt.members
+        )
+    return out
+
+
 def frame_members(
     beams: list[BeamCuboid], joints: list[Joint], p: FrameParams
 ) -> tuple[NDArray[np.int32], NDArray[np.bool_]]:
@@ -406,7 +451,20 @@ def frame_members(
     core = (sizes[comp] >= p.min_frame_members) | (comp == 1)
     if len(beams) and sizes[1] < 2:  # no joint anywhere: nothing holds together
         core[:] = False
-    core &= ~leaning(beams, joints, core, p)
+    lean = leaning(beams, joints, core, p)
+    core &= ~lean
+    idle = np.zeros(len(beams), bool)
+    group, g_sizes = comp, sizes
+    if core.any():
+        # what stands on the floor apart from the main frame and carries nothing is
+        # no member, nor holds together what only it touches: the groups without it
+        bottom, _ = frame_levels(beams, core, p.roles)
+        idle = idle_standing(beams, joints, comp != 1, bottom, p)
+        if idle.any():
+            kept = [jt for jt in joints if not any(idle[k - 1] for k in jt.members)]
+            group = components(len(beams), kept)
+            g_sizes = np.bincount(group, minlength=2)
+            core = ((g_sizes[group] >= p.min_frame_members) | (group == 1)) & ~lean & ~idle
     in_frame = core.copy()
     if core.any():
         # a small group counts when it reaches the frame's bottom (a couple of rafters,
@@ -414,8 +472,8 @@ def frame_members(
         # the bottom); timber lying lower is loose
         bottom, _ = frame_levels(beams, core, p.roles)
         corners = np.array([b.corners() for b in beams])[core].reshape(-1, 3)
-        for c in np.unique(comp[(~core) & (sizes[comp] < p.min_frame_members)]):
-            ids = np.flatnonzero(comp == c)
+        for c in np.unique(group[(~core) & (g_sizes[group] < p.min_frame_members) & ~idle]):
+            ids = np.flatnonzero(group == c)
             top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
             section = max(max(beams[i].width, beams[i].height) for i in ids)
             in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
