@@ -133,7 +133,8 @@ def solid_dimensions(el: Any) -> dict[str, Any]:
     (profile XDim, YDim), ``length``; solid of revolution: ``radius`` (mean of the
     profile's interior stations; the bench takes it at the table's ``radius_height_m``
     when there is one), ``radius_base``, ``radius_top``, ``length`` (the profile's
-    height), ``profile`` (its stations).  ``axis_z``: z of the placement's axis (world, unit).
+    height), ``profile`` (its stations); a fluted shaft's face set: the same from the mean
+    radius of each ring of its outline.  ``axis_z``: z of the placement's axis (world, unit).
     """
     item = el.Representation.Representations[0].Items[0]
     out: dict[str, Any] = {}
@@ -151,6 +152,16 @@ def solid_dimensions(el: Any) -> dict[str, Any]:
         out["profile"] = prof  # (radius, height) stations: the radius at a table height
         out["radius_base"], out["radius_top"] = float(prof[0, 0]), float(prof[-1, 0])
         out["length"] = float(np.ptp(prof[:, 1]))
+    elif item.is_a("IfcPolygonalFaceSet"):  # a fluted shaft: rings of its outline
+        xyz = np.array(item.Coordinates.CoordList, dtype=float)
+        heights, ring = np.unique(np.round(xyz[:, 2], 9), return_inverse=True)
+        radii = np.bincount(ring, np.hypot(xyz[:, 0], xyz[:, 1])) / np.bincount(ring)
+        prof = np.column_stack([radii, heights])
+        out["radius"] = float(np.mean(prof[1:-1, 0] if len(prof) > 2 else prof[:, 0]))
+        out["length"] = float(np.ptp(heights))
+        if len(prof) > 2:  # stations of a measured profile, as a solid of revolution's
+            out["profile"] = prof
+            out["radius_base"], out["radius_top"] = float(prof[0, 0]), float(prof[-1, 0])
     ax = el.ObjectPlacement.RelativePlacement.Axis
     out["axis_z"] = float(ax.DirectionRatios[2]) if ax is not None else 1.0
     return out

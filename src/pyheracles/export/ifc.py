@@ -11,7 +11,9 @@ writes one IFC 4 model:
   a note).
 * Columns: IfcColumn (COLUMN) with an extruded circle along the fitted axis, or,
   when the radius measured along the axis changes (taper, entasis), a solid of
-  revolution of the measured radii (:func:`radius_profile`); the plinth / base and
+  revolution of the measured radii (:func:`radius_profile`); a fluted shaft as a
+  closed face set of its measured flutes (:mod:`pyheracles.export.flutes`: their
+  number and depth in the property set) on those radii; the plinth / base and
   capital / abacus bands of the objects table (``base_top_m``, ``capital_bottom_m``)
   as further body items, slabs of the outline their points reach per layer
   (:func:`part_slabs`), on piers too;
@@ -46,6 +48,7 @@ from pyheracles.export.element_shapes import (
     radius_profile,
     section_roll,
 )
+from pyheracles.export.flutes import Flutes, fluted_shaft_mesh, measure_flutes
 
 __all__ = ["IfcReport", "export_ifc", "export_ifc_folders", "read_result_folder"]
 
@@ -196,9 +199,28 @@ class _Writer:
                                               self.direction((0, 1, 0)))  # fmt: skip
         return self.f.createIfcRevolvedAreaSolid(area, pos, axis, 2 * math.pi)
 
-    def shape(self, solids: list[Any]) -> Any:
-        rep = self.f.createIfcShapeRepresentation(self.body, "Body", "SweptSolid", solids)
+    def shape(self, solids: list[Any], kind: str = "SweptSolid") -> Any:
+        rep = self.f.createIfcShapeRepresentation(self.body, "Body", kind, solids)
         return self.f.createIfcProductDefinitionShape(None, None, [rep])
+
+    def faceset(self, verts: Array, faces: list[list[int]]) -> Any:
+        """A closed IfcPolygonalFaceSet of ``verts`` and 0-based polygon ``faces``."""
+        coords = self.f.createIfcCartesianPointList3D([[float(v) for v in p] for p in verts])
+        polys = [self.f.createIfcIndexedPolygonalFace([int(i) + 1 for i in face])
+                 for face in faces]  # fmt: skip
+        return self.f.createIfcPolygonalFaceSet(coords, True, polys, None)
+
+    def prism_faceset(self, ring: Array, t0: float, t1: float) -> Any:
+        """A slab (a polygon ``ring`` extruded from ``t0`` to ``t1``) as a face set."""
+        ring = np.asarray(ring, dtype=np.float64)
+        x, y = ring[:, 0], ring[:, 1]
+        if float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) < 0:
+            ring = ring[::-1]  # counter-clockwise, so that the faces point outwards
+        m = len(ring)
+        verts = np.vstack([np.c_[ring, np.full(m, t0)], np.c_[ring, np.full(m, t1)]])
+        faces = [[j, (j + 1) % m, m + (j + 1) % m, m + j] for j in range(m)]
+        faces += [list(range(m - 1, -1, -1)), list(range(m, 2 * m))]
+        return self.faceset(verts, faces)
 
     def profile_2d(self) -> Any:
         return self.f.createIfcAxis2Placement2D(self.f.createIfcCartesianPoint([0.0, 0.0]),
@@ -271,8 +293,10 @@ def _unit(v: Array) -> Array | None:
 
 
 def _band_items(w: _Writer, local: Array, base_top: float, cap_bottom: float, length: float,
-                noise: float, layer_m: float = 0.03) -> list[Any]:  # fmt: skip
-    """Extruded slabs of a support's base and capital bands (:func:`part_slabs`)."""
+                noise: float, layer_m: float = 0.03,
+                faceted: bool = False) -> list[Any]:  # fmt: skip
+    """Extruded slabs of a support's base and capital bands (:func:`part_slabs`);
+    ``faceted``: as closed face sets (in a body whose shaft is one)."""
     items = []
     t = local[:, 2] if len(local) else np.zeros(1)
     bands = []
@@ -282,8 +306,21 @@ def _band_items(w: _Writer, local: Array, base_top: float, cap_bottom: float, le
         bands.append((cap_bottom - layer_m, max(float(t.max()), length) + layer_m))
     for lo, hi in bands:
         for ring, t0, t1 in part_slabs(local, lo, hi, noise=noise, layer_m=layer_m):
-            items.append(w.solid(w.polygon(ring), t1 - t0, t0))
+            items.append(w.prism_faceset(ring, t0, t1) if faceted
+                         else w.solid(w.polygon(ring), t1 - t0, t0))  # fmt: skip
     return items
+
+
+def _shaft_flutes(local: Array, stations: Array, base_top: float,
+                  cap_bottom: float) -> Flutes | None:  # fmt: skip
+    """Flutes of a column's shaft (:func:`measure_flutes`) from its points between the
+    base and capital bands (the whole height where the table has none), about the
+    smooth radius of ``stations`` (radius, height along the axis)."""
+    t = local[:, 2]
+    lo = base_top if math.isfinite(base_top) else -np.inf
+    hi = cap_bottom if math.isfinite(cap_bottom) else np.inf
+    shaft = local[(t > lo) & (t < hi)]
+    return measure_flutes(shaft, np.interp(shaft[:, 2], stations[:, 1], stations[:, 0]))
 
 
 def _local(pts: Array, base: Array, axis: Array, x: Array) -> Array:
@@ -342,20 +379,29 @@ def _supports(w: _Writer, objects: pd.DataFrame, cloud: Any, container: Any,
             profile = radius_profile(pts, base, axis, length, radius=radius, at=at)
             predefined = "PILASTER" if cls == "engaged_column" else "COLUMN"
             dims = {"radius_m": radius}
+            # table heights are z of the axis above z_min: along the axis / axis_z
+            az = max(abs(float(axis[2])), 1e-6)
+            loc = _local(pts, base, axis, x)
+            stations = (np.array([[radius, 0.0], [radius, length]]) if profile is None
+                        else profile)  # fmt: skip
+            flutes = _shaft_flutes(loc, stations, base_top / az, cap_bottom / az)
             # the shaft first (its dimensions are the table's), then base and capital slabs
-            items = [w.solid(w.circle(radius), length) if profile is None
-                     else w.revolved(profile)]  # fmt: skip
+            if flutes is not None:
+                items = [w.faceset(*fluted_shaft_mesh(flutes, stations))]
+                dims |= {"flutes": flutes.count, "flute_depth_m": flutes.depth_m}
+            else:
+                items = [w.solid(w.circle(radius), length) if profile is None
+                         else w.revolved(profile)]  # fmt: skip
             if math.isfinite(base_top) or math.isfinite(cap_bottom):
-                # table heights are z of the axis above z_min: along the axis / axis_z
-                az = max(abs(float(axis[2])), 1e-6)
-                items += _band_items(w, _local(pts, base, axis, x), base_top / az,
-                                     cap_bottom / az, length, noise)  # fmt: skip
-            shape = w.shape(items)
+                items += _band_items(w, loc, base_top / az, cap_bottom / az, length, noise,
+                                     faceted=flutes is not None)  # fmt: skip
+            shape = w.shape(items, "SweptSolid" if flutes is None else "Tessellation")
             if profile is not None:  # taper or entasis: the measured radii revolved
                 dims |= {
                     "radius_base_m": float(profile[0, 0]),
                     "radius_top_m": float(profile[-1, 0]),
-                    "profile": f"revolved, radii measured at {len(profile)} stations",
+                    "profile": ("fluted face set" if flutes is not None else "revolved")
+                    + f", radii measured at {len(profile)} stations",
                 }
         el = w.element("IfcColumn", f"{cls} {inst}", place, shape, predefined, container)
         w.pset(el, "Heracles_Provenance", {
