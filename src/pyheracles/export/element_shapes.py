@@ -192,13 +192,15 @@ def part_slabs(
 def _merge_sparse_runs(
     runs: list[tuple[int, int]], reach: Array, per_layer: NDArray[np.intp], min_count: int
 ) -> list[tuple[int, int]]:
-    """Runs of layers, each run of fewer than ``min_count`` points joined to a neighbour.
+    """Runs of layers, adjacent runs of fewer than ``min_count`` points joined.
 
     On a sparse support (a few scan lines across its plinth or capital) every 3 cm layer
     has its own reach, each run holds a handful of points, and dropping such runs left
     the part out of the body (a column's 4-30 capital or plinth points 10-17 cm from its
-    solid).  A sparse run joins the adjacent run whose median reach is nearest its own,
-    the sparsest first, until every run holds ``min_count`` points or one run is left.
+    solid).  A sparse run joins an adjacent sparse run (the one whose median reach is
+    nearest its own), the sparsest first, until it holds ``min_count`` points or has no
+    sparse neighbour; a sparse run between dense ones stays a slab of its own (joined
+    to a dense run, it widened that run's slab beyond the points of its other layers).
     """
     runs = list(runs)
 
@@ -208,16 +210,23 @@ def _merge_sparse_runs(
     def level(r: tuple[int, int]) -> float:
         return float(np.median(reach[r[0] : r[1]]))
 
-    while len(runs) > 1:
+    while True:
         counts = [count(r) for r in runs]
-        i = int(np.argmin(counts))
-        if counts[i] >= min_count:
-            break
-        sides = [j for j in (i - 1, i + 1) if 0 <= j < len(runs)]
+        pairs = [
+            (counts[i], i, j)
+            for i in range(len(runs))
+            if counts[i] < min_count
+            for j in (i - 1, i + 1)
+            if 0 <= j < len(runs) and counts[j] < min_count
+        ]
+        if not pairs:
+            return runs
+        low = min(c for c, _, _ in pairs)
+        i = next(i for c, i, _ in pairs if c == low)
+        sides = [j for c, k, j in pairs if k == i]
         j = min(sides, key=lambda s: abs(level(runs[s]) - level(runs[i])))
         a, b = min(i, j), max(i, j)
         runs[a : b + 1] = [(runs[a][0], runs[b][1])]
-    return runs
 
 
 def _hull(q: Array, inset: float) -> Array | None:
