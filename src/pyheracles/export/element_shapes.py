@@ -169,7 +169,8 @@ def part_slabs(
         if m.sum() < 3:
             continue
         if m.sum() < 4 * min_points * sectors:  # sparse: the hull of the points, less
-            ring = _hull(q[m], noise)  # the noise (each point is on the surface)
+            # the noise (each point is on the surface), without radial spikes
+            ring = _hull(q[m][_no_radial_spikes(ang[m], d[m], max(3.0 * noise, 0.01))], noise)
             if ring is not None:
                 out.append((ring, float(edges[g0]), float(edges[g1])))
             continue
@@ -227,6 +228,34 @@ def _merge_sparse_runs(
         j = min(sides, key=lambda s: abs(level(runs[s]) - level(runs[i])))
         a, b = min(i, j), max(i, j)
         runs[a : b + 1] = [(runs[a][0], runs[b][1])]
+
+
+def _no_radial_spikes(
+    ang: Array, d: Array, tol: float, k: int = 4, min_points: int = 100
+) -> NDArray[np.bool_]:
+    """Points not sticking out of the outline their angular neighbours draw.
+
+    A point more than ``tol`` farther from the axis than the second farthest of its
+    ``k`` neighbours on each side in angle is a spike: a mixed pixel at a plinth's edge, a
+    floor return beyond it.  The convex hull of a sparse slab passes through such
+    points, and supports draw 3's plinths bulged 8 cm beyond their faces; a square's
+    corner is no spike (its neighbours in angle are nearly as far).  Fewer than
+    ``min_points`` points: all kept (a few scan lines across a moulding are neighbours
+    in angle only far apart, and each of them draws the outline).
+    """
+    n = len(d)
+    keep = np.ones(n, dtype=bool)
+    if n < max(min_points, 4 * k):
+        return keep
+    order = np.argsort(ang)
+    ds = d[order]
+    # the neighbours' distances around the circle: columns -k .. -1, 1 .. k
+    shifts = [s for s in range(-k, k + 1) if s]
+    nb = np.column_stack([np.roll(ds, -s) for s in shifts])
+    # beyond the second farthest of them: a face's point among points of the slab's top
+    # face (nearer the axis) has another of the face's points among its neighbours
+    keep[order] = ds <= np.sort(nb, axis=1)[:, -2] + tol
+    return keep
 
 
 def _hull(q: Array, inset: float) -> Array | None:
