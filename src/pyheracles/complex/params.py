@@ -148,6 +148,13 @@ class ComplexParams:
         AHN3 tile 1: of the 360 points the objects took more than 0.25 m out and under
         2 m, 35 are building in the reference; the rule gives back 198 of them, 8 of
         those building.  Metres; ``None`` turns this off.
+    low_outlier_m
+        An object's point standing more than this under the terrain under it (the
+        median of the 8 nearest ground points) is a low outlier (a multipath return),
+        never the feature's: it goes back to the pool (see
+        :func:`pyheracles.complex.clutter.under_terrain`).  Complex family draws 0-29:
+        347 object points more than 0.5 m under the terrain, none of them the
+        feature's.  Metres; ``None`` turns this off.
     crown_rise_m
         A point of an object standing more than this above the median of its
         8 nearest points of the object in XY (within the clustering distance),
@@ -199,6 +206,7 @@ class ComplexParams:
     outside_above_top_m: float | None = 1.0
     eave_tolerance_m: float | None = 0.15
     clutter_height_m: float | None = 2.0
+    low_outlier_m: float | None = 0.5
     crown_rise_m: float | None = 1.0
     crown_share: float = 0.2
     ground: str = "auto"
@@ -228,6 +236,8 @@ class ComplexParams:
             raise InputError(f"eave_tolerance_m must be > 0, got {self.eave_tolerance_m}")
         if self.clutter_height_m is not None and not self.clutter_height_m > 0:
             raise InputError(f"clutter_height_m must be > 0, got {self.clutter_height_m}")
+        if self.low_outlier_m is not None and not self.low_outlier_m >= 0:
+            raise InputError(f"low_outlier_m must be >= 0, got {self.low_outlier_m}")
         if self.crown_rise_m is not None and not self.crown_rise_m >= 0:
             raise InputError(f"crown_rise_m must be >= 0, got {self.crown_rise_m}")
         if self.outside_above_top_m is not None and not self.outside_above_top_m >= 0:

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from pyheracles.cloud import PointCloud
 from pyheracles.complex.clusters import hull, object_points, porous_points, scattered_points
-from pyheracles.complex.clutter import clutter_points, terrain_under
+from pyheracles.complex.clutter import clutter_points, terrain_under, under_terrain
 from pyheracles.complex.cookie import GridIndex, claims, footprints_of, nearest_layer, to_local
 from pyheracles.complex.crowns import crown_points
 from pyheracles.complex.levels import auto_layer_order, ground_level, ground_mask, raised_ground
@@ -153,6 +153,9 @@ def _segment_layer(
             keep[np.flatnonzero(keep)[crown]] = False
         if rp.clutter_height_m is not None and keep.any():
             keep[_clutter(site, cand, cand_dist, keep, rp)] = False
+        if rp.low_outlier_m is not None and keep.any():
+            kept = np.flatnonzero(keep)
+            keep[kept[_low_outliers(site, cand[kept], float(rp.low_outlier_m))]] = False
         # points of the buffer ring nearer to another layer's feature are left to it
         # (they linked the object's clusters all the same)
         keep &= ~site.elsewhere[name][cand]
@@ -245,6 +248,17 @@ def _clutter(
         float(rp.cluster_distance_m), float(rp.clutter_height_m),  # type: ignore[arg-type]
     )  # fmt: skip
     return kept[clutter]
+
+
+def _low_outliers(site: _Site, members: NDArray[np.int64], depth_m: float) -> NDArray[np.bool_]:
+    """Mask over ``members`` of the points more than ``depth_m`` under the terrain
+    (see :func:`under_terrain`; the ground near them as in :meth:`_Site.terrain`)."""
+    xy = site.xyz[members, :2]
+    lo = xy.min(axis=0) - TERRAIN_REACH_M
+    hi = xy.max(axis=0) + TERRAIN_REACH_M
+    near = site.index.query_box(lo[0], lo[1], hi[0], hi[1])
+    return under_terrain(site.xyz[members], site.xyz[near[site.ground[near]], 2], site.terrain,
+                         depth_m)  # fmt: skip
 
 
 def _tops(
