@@ -132,7 +132,7 @@ def test_mixed_pixels_beyond_a_sparse_plinth_do_not_bulge_it() -> None:
     pixels and floor returns up to 20 cm beyond its faces; the hull of the slab went
     through them and the plinth's points lay 4 cm (RMS) from the solid."""
     rng = np.random.default_rng(3)
-    n = 150
+    n = 400
     s = rng.uniform(-0.7, 0.7, 2 * n)
     face = np.r_[np.c_[np.full(n, 0.7), s[:n]], np.c_[s[n:], np.full(n, 0.7)]]
     plinth = np.c_[face, rng.uniform(0.0, 0.2, 2 * n)]
