@@ -174,12 +174,14 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
             grid = (u0, u1, z0, z1)
             u0, u1, z0, z1 = refine_edges(w_uz[local], face_of[local], u0, u1, z0, z1, c,
                                           at_foot, jambs)  # fmt: skip
-            if lining is not None and not on_floor:  # the reveals between the faces
-                # (a door's open leaf stands across its reveal edge on, as a jamb would)
+            if lining is not None:  # the reveals between the faces (a door's too: its
+                # leaf, seen on both its faces, is left out with the glass; church draws
+                # 3 and 13: stray returns on a sparse face put door jambs 4-7 cm inward)
                 box = lining & (np.abs(uz_all[:, 0] - 0.5 * (grid[0] + grid[1]))
                                 < 0.5 * (grid[1] - grid[0]) + 0.5)  # fmt: skip
                 box &= (uz_all[:, 1] > grid[2] - 0.5) & (uz_all[:, 1] < grid[3] + 0.5)
-                found = reveal_edges(uz_all[box], depth[box], *grid, c, jambs)  # type: ignore[index]
+                found = reveal_edges(uz_all[box], depth[box], *grid, c, jambs,  # type: ignore[index]
+                                     leaf=on_floor)
                 # the opening is where every surface is open: the innermost jambs of
                 # the faces' and the reveals' (a face's jamb, its innermost points and
                 # part of the gap to the next, narrows a reveal's by more than its

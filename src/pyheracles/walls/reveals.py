@@ -5,8 +5,8 @@ the head's soffit and the sill, square to the wall (straight) or widening toward
 face (splayed).  The opening through the wall is its narrowest section, where a
 straight reveal stands: a jamb's points there share one ``u`` (a plane seen edge on in
 the wall's ``(u, z)`` frame, however sparse the faces are), and a splayed part spreads
-outwards from it.  Glass, cames and a door leaf fill the opening at one depth and are
-left out; mixed pixels inside the opening are few and scattered.
+outwards from it.  Glass, cames and a door leaf fill the opening at one or two depths
+and are left out; mixed pixels inside the opening are few and scattered.
 """
 
 from __future__ import annotations
@@ -53,9 +53,11 @@ class RevealParams:
     inward_m
         Farthest an edge is looked for inside the grid's hole (0.4 m: the widest splay
         of a reveal, 0.35 m, and a cell).
-    pane_m
-        Points within this depth of the glass, cames or leaf (the median depth of the
-        points in the opening's middle) are no reveal (0.03 m).
+    pane_m, fill_share, fill_m
+        Points within ``pane_m`` (0.03 m) of the glass, cames or leaf are no reveal: of
+        the median depth of the points in the opening's middle, and for a door of each
+        depth within ``fill_m`` (0.1 m: a leaf 5-8 cm thick) of it where ``fill_share``
+        (0.1) of them lie (see :func:`pane_mask`).
     """
 
     bin_m: float = 0.01
@@ -67,6 +69,8 @@ class RevealParams:
     depth_m: float = 0.03
     inward_m: float = 0.4
     pane_m: float = 0.03
+    fill_share: float = 0.1
+    fill_m: float = 0.1
 
 
 def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
@@ -114,20 +118,36 @@ def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
 
 
 def pane_mask(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: float,
-              p: RevealParams) -> np.ndarray:  # fmt: skip
+              p: RevealParams, leaf: bool = False) -> np.ndarray:  # fmt: skip
     """Points that may line the opening ``u0``-``u1`` x ``z0``-``z1``: not within
-    ``pane_m`` of the depth of what fills its middle (the median depth of the points in
-    its central half, when at least 5)."""
+    ``pane_m`` of a depth of what fills its middle (the points in its central half, when
+    at least 5: their median depth, and for a door's ``leaf`` each depth within
+    ``fill_m`` of it where ``fill_share`` of them, and 5 at least, lie within ``bin_m``).
+
+    Glass 1-4 cm thick lies within ``pane_m`` of its median depth.  A door leaf 5-8 cm
+    thick is seen on both its faces, from inside and from outside: two depths, and
+    the columns of points on the one not left out, beside a jamb, made a reveal
+    there (church draws 4 and 9: door jambs put on the leaf 0.2-0.35 m inside the
+    opening).
+    """
     uc, zc = 0.5 * (u0 + u1), 0.5 * (z0 + z1)
     mid = (np.abs(uz[:, 0] - uc) < 0.25 * (u1 - u0)) & (np.abs(uz[:, 1] - zc) < 0.25 * (z1 - z0))
     if np.count_nonzero(mid) < 5:
         return np.ones(len(uz), dtype=bool)
-    return np.abs(depth - float(np.median(depth[mid]))) > p.pane_m
+    dm = np.sort(depth[mid])
+    near = np.searchsorted(dm, dm + p.bin_m, "right") - np.searchsorted(dm, dm - p.bin_m)
+    med = float(np.median(dm))
+    two = (near >= max(5.0, p.fill_share * len(dm))) & (np.abs(dm - med) <= p.fill_m) & leaf
+    fill = np.sort(np.r_[dm[two], med])
+    k = np.clip(np.searchsorted(fill, depth), 1, len(fill)) - 1  # the fills either side
+    nxt = fill[np.minimum(k + 1, len(fill) - 1)]
+    gap = np.minimum(np.abs(depth - fill[k]), np.abs(depth - nxt))
+    return gap > p.pane_m
 
 
 def reveal_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: float,
                  c: float, jambs: tuple[float, float] | None = None,
-                 p: RevealParams | None = None,
+                 p: RevealParams | None = None, leaf: bool = False,
                  ) -> tuple[float, float, float, float]:  # fmt: skip
     """Jambs, sill and head of an opening from the points between the wall's faces
     around it (``uz`` on the wall plane, ``depth`` across it; NaN: not measured).
@@ -147,7 +167,7 @@ def reveal_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: f
     nan = float("nan")
     if len(uz) < p.min_points:
         return nan, nan, nan, nan
-    ok = pane_mask(uz, depth, u0, u1, z0, z1, p)
+    ok = pane_mask(uz, depth, u0, u1, z0, z1, p, leaf)
     q, dq = uz[ok], depth[ok]
     h = z1 - z0
     lo_z, hi_z = (z0 + 0.25 * h, z1 - 0.1 * h) if jambs is None else jambs
