@@ -28,6 +28,11 @@ Sweep targets (issue 13) over draws of the ``roof`` family (attics with boarding
 walls, chimney, stored timber, ladder; 1-4 TLS stations inside the frame), per draw:
 member count exact, every member matched at F1 >= 0.5, median per-member F1 >= 0.95,
 cuboid width/height within 1 cm for members seen on >= 2 faces, axis within 1 degree.
+A width or height is scored where both its sides can be located from the scanned
+points (:func:`observable_sizes`: a tie beam sunk in the floor has no measurable
+depth); ``n_size_fail_whole_section`` counts the failures against the whole section
+as before, and the sizes across the one face of members seen on one face are
+reported apart (``one_face_width_fail``).
 """
 
 from __future__ import annotations
@@ -409,6 +414,72 @@ CONTAMINATION_SHARE = 0.1
 CUT_SHORT_COVERAGE = 0.8
 
 
+def _member_frame(o: dict, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A member's points in its section frame about its bent centre line: offsets along
+    the axis, the width (``side``) and the height (``up``) directions, metres."""
+    cu = o["cuboid"]
+    centre, axis, up, side = (np.asarray(cu[k]) for k in ("centre", "axis", "up", "side"))
+    rel = pts - centre
+    a = rel @ axis
+    t = np.clip(a / cu["length"] + 0.5, 0.0, 1.0)
+    sag = up if abs(axis[2]) > 0.95 else -up  # as the roof family bends its members
+    rel = rel - (4.0 * o["deflection_m"] * t * (1.0 - t))[:, None] * sag
+    return a, rel @ side, rel @ up
+
+
+def observable_sizes(o: dict, pts: np.ndarray) -> tuple[bool, bool]:
+    """Whether a member's width and height can be measured from its scanned points.
+
+    A size is measured between the member's two sides across it: each side is
+    located by its own face (at least ``FACE_MIN_POINTS`` points on it, as the
+    family counts a face seen) or by the edge of the faces across it, when their
+    points reach within ``SWEEP_SIZE_M`` of that side.  A tie beam sunk in the
+    floor shows its sides down to the floor only: its depth below is hidden, and
+    no reading of the points gives it.
+    """
+    from pyheracles.synthetic.families.roof_truth import FACE_MIN_POINTS
+
+    cu = o["cuboid"]
+    a, s, h = _member_frame(o, pts)
+    w2, h2 = 0.5 * cu["width"], 0.5 * cu["height"]
+    lateral = np.abs(a) <= 0.5 * cu["length"]
+    on_side = lateral & (np.abs(s) - w2 > np.abs(h) - h2)
+    on_up = lateral & ~on_side
+    out = []
+    # width: the side faces, or the upper / lower faces' ends; height: the other way
+    for own, half, facing, across in ((s, w2, on_side, on_up), (h, h2, on_up, on_side)):
+        sides_ok = []
+        for sign in (-1.0, 1.0):
+            seen = np.sum(facing & (sign * own > 0)) >= FACE_MIN_POINTS
+            vals = sign * own[across]
+            reach = len(vals) >= FACE_MIN_POINTS and np.quantile(vals, 0.995) >= half - SWEEP_SIZE_M
+            sides_ok.append(bool(seen or reach))
+        out.append(all(sides_ok))
+    return out[0], out[1]
+
+
+def one_face_width_error(o: dict, pts: np.ndarray, dims: dict[str, float]) -> float:
+    """Error of the size across the one face a member was seen on, metres (NaN: no face).
+
+    The face's width is the member's width on its side faces' neighbours (an
+    upper or lower face) and its height on a side face; the found size is the
+    one along the same direction (``dims``: found width ``w`` and height ``h``
+    by the member's own directions).
+    """
+    from pyheracles.synthetic.families.roof_truth import FACE_MIN_POINTS
+
+    cu = o["cuboid"]
+    a, s, h = _member_frame(o, pts)
+    lateral = np.abs(a) <= 0.5 * cu["length"]
+    on_side = lateral & (np.abs(s) - 0.5 * cu["width"] > np.abs(h) - 0.5 * cu["height"])
+    n_side, n_up = int(on_side.sum()), int((lateral & ~on_side).sum())
+    if max(n_side, n_up) < FACE_MIN_POINTS:
+        return float("nan")
+    if n_up >= n_side:  # an upper or lower face: its width is the member's width
+        return abs(dims.get("w", np.inf) - cu["width"])
+    return abs(dims.get("h", np.inf) - cu["height"])
+
+
 def member_scores(sim, result) -> dict:
     """Match found beams to the true members of a ``roof`` draw and score them.
 
@@ -459,6 +530,9 @@ def member_scores(sim, result) -> dict:
     roles = [o["role"] for o in objs]
     stations = np.array(sim.params["stations"])
     size_err = np.full(n_mem, np.nan)
+    size_err_all = np.full(n_mem, np.nan)  # against the whole section, seen or not
+    size_unobservable = np.zeros(n_mem, int)
+    face_width_err = np.full(n_mem, np.nan)
     axis_err = np.full(n_mem, np.nan)
     coverage = np.full(n_mem, np.nan)
     cut_far = np.zeros(n_mem, bool)
@@ -472,9 +546,14 @@ def member_scores(sim, result) -> dict:
         dims = {}
         for vec, val in ((cub.axes[:, 1], cub.width), (cub.axes[:, 2], cub.height)):
             dims["w" if abs(vec @ side) > abs(vec @ up) else "h"] = val
-        size_err[j] = max(
-            abs(dims.get("w", np.inf) - cu["width"]), abs(dims.get("h", np.inf) - cu["height"])
-        )
+        err_w = abs(dims.get("w", np.inf) - cu["width"])
+        err_h = abs(dims.get("h", np.inf) - cu["height"])
+        size_err_all[j] = max(err_w, err_h)
+        obs_w, obs_h = observable_sizes(o, xyz[truth == j + 1])
+        size_unobservable[j] = int(not obs_w) + int(not obs_h)
+        size_err[j] = max(err_w if obs_w else 0.0, err_h if obs_h else 0.0)
+        if faces[j] == 1:
+            face_width_err[j] = one_face_width_error(o, xyz[truth == j + 1], dims)
         mine = truth == j + 1
         a_all = (xyz[mine] - np.asarray(cu["centre"])) @ ax
         a_tp = a_all[pred[mine] == match[j]]
@@ -559,6 +638,14 @@ def member_scores(sim, result) -> dict:
         "max_size_err_m_2faces": max_size,
         "max_axis_err_deg": max_axis,
         "n_size_fail": int(np.sum(size_err[size_ok_set] > SWEEP_SIZE_M)),
+        # the same against the whole section, hidden sides included (before 2026-12-06)
+        "n_size_fail_whole_section": int(np.sum(size_err_all[size_ok_set] > SWEEP_SIZE_M)),
+        "n_sizes_unobservable": int(np.sum(size_unobservable[size_ok_set])),
+        "size_fail_roles": dict(
+            Counter(roles[j] for j in size_ok_set if size_err[j] > SWEEP_SIZE_M)
+        ),
+        "n_one_face_scored": int(np.sum(np.isfinite(face_width_err))),
+        "one_face_width_fail": int(np.sum(np.nan_to_num(face_width_err) > SWEEP_SIZE_M)),
         "size_fail_bent": int(
             np.sum(
                 [(size_err[j] > SWEEP_SIZE_M) and objs[j]["deflection_m"] > 0 for j in size_ok_set]
@@ -849,7 +936,13 @@ def summarize(rows: list[dict], t_gen_total: float | None = None) -> None:
     worst = min(range(len(rows)), key=lambda i: (-fails[i], rows[i]["median_f1"]))
     total: dict[str, Counter] = {}
     for r in rows:
-        for key in ("lost_by_role", "lost_fate", "spurious", "cut_short_by_role"):
+        for key in (
+            "lost_by_role",
+            "lost_fate",
+            "spurious",
+            "cut_short_by_role",
+            "size_fail_roles",
+        ):
             total.setdefault(key, Counter()).update(r.get(key, {}))
         for cname, per in r.get("contaminated", {}).items():
             total.setdefault(f"contaminated_{cname}", Counter()).update(per)
@@ -868,7 +961,11 @@ def summarize(rows: list[dict], t_gen_total: float | None = None) -> None:
             "split_members",
             "merged_beams",
             "n_size_fail",
+            "n_size_fail_whole_section",
+            "n_sizes_unobservable",
             "size_fail_bent",
+            "n_one_face_scored",
+            "one_face_width_fail",
             "n_axis_fail",
         )
     }

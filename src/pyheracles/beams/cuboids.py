@@ -12,6 +12,7 @@ from pyheracles.beams.bands import edge_line_direction
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.grouping import UnionFind
 from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
+from pyheracles.beams.sections import Bow, centre_line_bow, face_edges
 from pyheracles.errors import DegenerateGeometryError
 
 __all__ = [
@@ -77,6 +78,7 @@ def sparse_face(
     edge: float,
     sign: float,
     bin_m: float,
+    bow: Bow | None = None,
 ) -> float:
     """Offset along ``d`` of a beam side seen by too few points for a facet.
 
@@ -88,14 +90,15 @@ def sparse_face(
     are enough, spread along the beam (10 cm bins holding them cover at least
     ``_SPARSE_FACE_MIN_COVER`` of its length: the ends of beams resting on this
     one are local) and lie on one plane across ``d`` (interquartile range below
-    ``bin_m``, at least 6 mm); otherwise ``edge`` is.
+    ``bin_m``, at least 6 mm); otherwise ``edge`` is.  Offsets are taken
+    about the centre line's ``bow`` across ``d`` (:func:`centre_line_bow`).
     """
     if len(free) == 0 or np.ptp(band) < 0.04:
         return edge
     margin = max(2.0 * bin_m, 0.01)
     b_lo, b_hi = float(band.min()) + margin, float(band.max()) - margin
     reach = max(6.0 * bin_m, 0.03)
-    a = free @ d
+    a = free @ d if bow is None or bow.is_zero else free @ d - bow(free @ axis)
     sel = (sign * (a - edge) <= reach) & (sign * (a - edge) >= -max(2.0 * bin_m, 0.01))
     if not sel.any():
         return edge
@@ -118,6 +121,15 @@ def sparse_face(
     q1, q3 = np.quantile(vals, [0.25, 0.75])
     if q3 - q1 > max(bin_m, 0.006):
         return edge
+    if bow is not None and not bow.is_zero:
+        # a face of a bowed beam bows with it: points whose own curvature along
+        # the beam is nearer none than the bow's (the boarding left straight
+        # over a sagging rafter, seen through the gap) are another surface
+        s_t = t[inside] - bow.t0
+        design = np.column_stack([np.ones(len(s_t)), s_t, s_t * s_t])
+        curve = np.linalg.lstsq(design, (cand @ d)[inside], rcond=None)[0][2]
+        if abs(curve) < abs(curve - bow.b2):
+            return edge
     return float(np.median(vals))
 
 
@@ -138,9 +150,15 @@ def fit_beam_cuboid(
     - the axis is the direction most orthogonal to the facet normals (smallest
       eigenvector of ``sum n n^T``, weighted by points), exact for two
       non-parallel faces;
+    - the sizes are read about the centre line: where the faces facing one
+      direction of the section show a bow along the beam (a sag of 1-3 cm,
+      :func:`centre_line_bow`), every offset across that direction is taken
+      from the bowed centre line, and the straight box is placed where the bow
+      is on average (the box of a bent beam no longer encloses its sag);
     - each side of the cross-section comes from the plane of the face on that
       side (median offset, robust) when that face was seen, otherwise from the
-      half-density edge of the adjacent faces' points (unbiased by noise),
+      half-density edge of the adjacent faces' points (unbiased by noise,
+      :func:`face_edges`: a pile at the edge is the surface meeting it there),
       including the ``free`` points (``(m, 3)`` coordinates of the points in no
       facet) on those faces' planes, which
       restores the edge strips where blended normals kept points out of facets;
@@ -176,17 +194,34 @@ def fit_beam_cuboid(
     if abs(u[2]) > abs(v[2]):  # make u the more horizontal one
         u, v = v, -u
     pts = np.vstack([xyz[f.index] for f in facets])
+    t = pts @ axis
+    t_lo, t_hi = np.quantile(t, [0.005, 0.995])
     bounds = []
+    bows = []
     seen = 0
     for d, other in ((u, v), (v, u)):
         facing = [f for f in facets if abs(f.normal @ d) >= abs(f.normal @ other)]
         across = [f for f in facets if abs(f.normal @ d) < abs(f.normal @ other)]
-        offsets = np.array([np.median(xyz[f.index] @ d) for f in facing])
+        # the sizes are read about the centre line, bowed as the facing faces show
+        bow = Bow()
+        if facing:
+            own_f = [xyz[f.index] for f in facing]
+            bow = centre_line_bow(
+                np.concatenate([q @ axis for q in own_f]),
+                np.concatenate([q @ d for q in own_f]),
+                np.repeat(np.arange(len(own_f)), [len(q) for q in own_f]),
+                float(t_hi - t_lo),
+            )
+
+        def along(q: NDArray[np.float64], d=d, bow=bow) -> NDArray[np.float64]:
+            return q @ d if bow.is_zero else q @ d - bow(q @ axis)
+
+        offsets = np.array([np.median(along(xyz[f.index])) for f in facing])
         if across:
-            a_vals = np.concatenate([face_points(xyz, f, bin_m, free) @ d for f in across])
+            a_vals = np.concatenate([along(face_points(xyz, f, bin_m, free)) for f in across])
+            e_lo, e_hi = face_edges(a_vals, bin_m)
         else:
-            a_vals = pts @ d
-        e_lo, e_hi = half_max_edges(a_vals, bin_m)
+            e_lo, e_hi = half_max_edges(along(pts), bin_m)
         if across:
             # the free points restore the edge strips, outwards; where many pile up
             # along one edge (the corner with a face seen edge-on) the half-density
@@ -195,7 +230,7 @@ def fit_beam_cuboid(
             # half-density level of its far part is reached inside it: the faces'
             # own points reach at least as far as their half-density edges and
             # their 2 / 98 % quantiles (inside the edges of a uniform band)
-            own = np.concatenate([xyz[f.index] @ d for f in across])
+            own = np.concatenate([along(xyz[f.index]) for f in across])
             own_lo, own_hi = half_max_edges(own, bin_m)
             q_lo, q_hi = np.quantile(own, [0.02, 0.98])
             e_lo, e_hi = min(e_lo, own_lo, float(q_lo)), max(e_hi, own_hi, float(q_hi))
@@ -212,20 +247,21 @@ def fit_beam_cuboid(
             # to within a scan-line spacing; the face's own points, if any were
             # scanned, fix it (they lie between the adjacent faces' planes).
             band = np.array([np.median(xyz[f.index] @ other) for f in across])
-            t_all = pts @ axis
-            t_rng = (float(np.quantile(t_all, 0.005)), float(np.quantile(t_all, 0.995)))
+            t_rng = (float(t_lo), float(t_hi))
             if not len(lo_faces):
-                b_lo = sparse_face(free, axis, d, other, band, t_rng, e_lo, -1.0, bin_m)
+                b_lo = sparse_face(free, axis, d, other, band, t_rng, e_lo, -1.0, bin_m, bow)
             if not len(hi_faces):
-                b_hi = sparse_face(free, axis, d, other, band, t_rng, e_hi, 1.0, bin_m)
+                b_hi = sparse_face(free, axis, d, other, band, t_rng, e_hi, 1.0, bin_m, bow)
         bounds.append((b_lo, b_hi))
+        bows.append(bow)
         seen += int(len(lo_faces) > 0) + int(len(hi_faces) > 0)
-    t = pts @ axis
-    t_lo, t_hi = np.quantile(t, [0.005, 0.995])
     (u_lo, u_hi), (v_lo, v_hi) = bounds
+    # the straight box stands for the bowed beam where the bow is on average
+    u_mid = 0.5 * (u_lo + u_hi) + bows[0].mean(float(t_lo), float(t_hi))
+    v_mid = 0.5 * (v_lo + v_hi) + bows[1].mean(float(t_lo), float(t_hi))
     if min(u_hi - u_lo, v_hi - v_lo) <= 0:
         raise DegenerateGeometryError("the facets of this beam give no cross-section")
-    centre = axis * 0.5 * (t_lo + t_hi) + u * 0.5 * (u_lo + u_hi) + v * 0.5 * (v_lo + v_hi)
+    centre = axis * 0.5 * (t_lo + t_hi) + u * u_mid + v * v_mid
     cub = BeamCuboid(
         centre=centre,
         axes=np.column_stack([axis, u, v]),
