@@ -179,10 +179,12 @@ def detect_supports_checked(
         for sh in low_shapes:
             sh["h_sec"] = h_low
         shapes = dedupe(shapes + low_shapes)
-    # 2c. a thick section for the columns too sparse for the thin one (a few hundred
+    # 2c. a thick section for the supports too sparse for the thin one (a few hundred
     # points on a column far from every station): the same islands on a slab
-    # THICK_SECTION_M thick, new free rings clear of every shape found only (the thick
-    # slab holds more of the clutter and of the window frames: its piers are not trusted)
+    # THICK_SECTION_M thick, new shapes clear of every shape found and of the thick
+    # slab's walls only (it holds more of the clutter and of the window frames), piers
+    # at least min_support_size_m across both ways (draw 8: a 0.3 m pier with 7 points
+    # in the thin section; draw 14: two antae with 19 and 24)
     if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
         s3, e3 = np.searchsorted(
             z_sorted, [h_sec - THICK_SECTION_M / 2, h_sec + THICK_SECTION_M / 2]
@@ -192,16 +194,21 @@ def detect_supports_checked(
         thick_shapes, _ = support_shapes(p[thick_idx, :2], thick_islands, params, sc, rng)
         walls = [p[thick_idx[i.index], :2] for i in thick_islands if i.kind == "wall"]
         wall_tree = cKDTree(np.vstack(walls)) if walls else None
-        shapes += [
+        thin_xy = p[sec_idx, :2]
+        added = [
             sh
             for sh in thick_shapes
-            if sh["class"] == "column"
+            if sh["class"] in ("column", "pier")
             and clear_of(sh, shapes)
             and (  # a free ring: no wall of the thick slab at it (a corner, a window frame)
                 wall_tree is None
-                or not wall_tree.query_ball_point(sh["centre"], sh["radius"] + 3 * sc.distance)
+                or not wall_tree.query_ball_point(sh["centre"], shape_reach(sh) + 3 * sc.distance)
             )
+            and (sh["class"] == "column" or thick_pier(sh, params, thin_xy))
         ]
+        for sh in added:
+            sh["sparse"] = True
+        shapes += added
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
     if not shapes:
@@ -260,6 +267,7 @@ def detect_supports_checked(
                 float(sh.get("carried_z", np.inf)),
                 float(sh.get("overhead", 0.0)),
                 bool(sh.get("reaches", sh.get("carries", True))),
+                bool(sh.get("sparse", False)),
             )
         )
     thin = thin_free_columns(rows, [m[1] for m in members])
@@ -271,8 +279,8 @@ def detect_supports_checked(
         )
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
-    carries, tops, covers, reach = ([m[j] for m in members] for j in (1, 2, 3, 4))
-    low = low_carriers(rows, carries, tops) | covered_free_columns(rows, reach, covers)
+    carries, tops, covers, reach, sparse = ([m[j] for m in members] for j in (1, 2, 3, 4, 5))
+    low = low_carriers(rows, carries, tops, sparse) | covered_free_columns(rows, reach, covers)
     if low:
         notes.append(
             f"{len(low)} candidate{'s' if len(low) > 1 else ''} ending lower than "
@@ -399,8 +407,14 @@ LOW_CARRY_SHARE = 0.8
 MIN_CARRYING = 3
 
 
-def low_carriers(rows: list[dict], carries: list[bool], carried_z: list[float]) -> set[int]:
-    """Indices of the columns that end below the building's carried level.
+def low_carriers(
+    rows: list[dict],
+    carries: list[bool],
+    carried_z: list[float],
+    sparse: list[bool] | None = None,
+) -> set[int]:
+    """Indices of the columns, and of the piers found in the thick section only
+    (``sparse``), that end below the building's carried level.
 
     ``rows``: objects-table rows (``class``, ``z_min``, ``z_max``); ``carries``: whether
     each carries something; ``carried_z``: the underside of what it carries (metres).
@@ -414,7 +428,10 @@ def low_carriers(rows: list[dict], carries: list[bool], carried_z: list[float]) 
     underside, level with the scanner, went unseen); in a ruin, where most carry
     nothing, it is a broken column and stays.  A column whose foot or top the scan
     missed is judged by what it carries, not by its points (draw 36: a column seen
-    from 1.35 to 2.58 m under a ceiling at 2.8 m)."""
+    from 1.35 to 2.58 m under a ceiling at 2.8 m).  A pier found in the thick section
+    only is judged alike (draw 1: a scaffold's standard 8 m tall beside a column, under
+    a roof carried at 14.7 m); one the thin section found is not, its top may be
+    shadowed (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m)."""
     levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
     if len(levels) < MIN_CARRYING:
         return set()
@@ -422,7 +439,8 @@ def low_carriers(rows: list[dict], carries: list[bool], carried_z: list[float]) 
     standing = 2 * len(levels) >= len(rows)
     out = set()
     for k, (r, c, t) in enumerate(zip(rows, carries, carried_z, strict=True)):
-        if r["class"] != "column" or not (c or standing):
+        judged = r["class"] == "column" or (sparse is not None and sparse[k])
+        if not judged or not (c or standing):
             continue
         top = t if c and np.isfinite(t) else float(r["z_max"])
         if top - float(r["z_min"]) < LOW_CARRY_SHARE * (level - float(r["z_min"])):
@@ -456,6 +474,27 @@ def covered_free_columns(rows: list[dict], carries: list[bool], overhead: list[f
         for k, (r, c, o) in enumerate(zip(rows, carries, overhead, strict=True))
         if r["class"] == "column" and not c and o >= OVERHEAD_SHARE
     }
+
+
+def thick_pier(sh: dict, params: SupportParams, thin_xy: Array) -> bool:
+    """Whether a pier shape of the thick section may be a support: at least
+    ``min_support_size_m`` across both ways (the thick slab holds window frames,
+    mullions and slivers of wall faces seen through openings), and too sparse for the
+    thin section ``thin_xy`` (fewer than ``2 x min_points`` of its points within the
+    shape's reach): where the thin slab holds the place densely, its islands said what
+    stands there (draw 19: a part of a 2 x 1 m pier split off as a second one)."""
+    if sh["class"] != "pier" or 2.0 * float(np.min(sh["half"])) < params.min_support_size_m:
+        return False
+    near = np.max(np.abs(thin_xy - sh["centre"]), axis=1) <= shape_reach(sh)
+    return int(np.count_nonzero(near)) < 2 * params.min_points
+
+
+def shape_reach(sh: dict) -> float:
+    """How far a section shape reaches from its centre: a column's radius, a pier's
+    half diagonal (metres)."""
+    if sh["class"] == "pier":
+        return float(np.hypot(*sh["half"]))
+    return float(sh["radius"])
 
 
 def clear_of(sh: dict, shapes: list[dict]) -> bool:
