@@ -14,31 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyheracles.beams import BeamCuboid
 from pyheracles.beams.frame import FrameParams, frame_members, idle_standing, loose
-from pyheracles.beams.joints import Joint
 from pyheracles.synthetic.families.roof_frame import member_between
+from test_beams_ladder import cuboid_of, joint
 
 X = np.array([1.0, 0.0, 0.0])
 Y = np.array([0.0, 1.0, 0.0])
 Z = np.array([0.0, 0.0, 1.0])
-
-
-def _cuboid(m) -> BeamCuboid:
-    return BeamCuboid(
-        centre=np.asarray(m.centre, float),
-        axes=np.column_stack([m.axis, m.side, m.up]),
-        length=m.length,
-        width=m.width,
-        height=m.height,
-        rms=0.0,
-        n_facets=2,
-        faces_seen=2,
-    )
-
-
-def _joint(a: int, b: int, at_a: float, at_b: float) -> Joint:
-    return Joint(members=(a, b), point=np.zeros(3), type="T", distance_m=0.0, at=(at_a, at_b))
 
 
 def _attic(chimney_top_joint: bool = False):
@@ -58,18 +40,18 @@ def _attic(chimney_top_joint: bool = False):
         member_between("planks", "x", [2.5, -0.6, 0.15], [6.0, -0.6, 0.15], 0.59, 0.14, Z),
         member_between("timber", "x", [3.7, -2.0, 0.1], [3.7, 0.0, 0.1], 0.19, 0.19, Z),
     ]
-    beams = [_cuboid(m) for m in ms]
+    beams = [cuboid_of(m) for m in ms]
     joints = [
-        _joint(1, 2, 1.0, 1.0),  # apex
-        _joint(1, 3, 1.0, 0.25),
-        _joint(2, 3, 1.0, 0.25),
-        _joint(2, 4, 0.0, 0.0),  # the rafter's foot on the plate
-        _joint(4, 5, 0.5, 1.0),  # the tie's end at the plate
-        _joint(6, 7, 0.1, 0.4),  # the chimney's foot against the planks
-        _joint(7, 8, 0.35, 0.7),
+        joint(1, 2, 1.0, 1.0),  # apex
+        joint(1, 3, 1.0, 0.25),
+        joint(2, 3, 1.0, 0.25),
+        joint(2, 4, 0.0, 0.0),  # the rafter's foot on the plate
+        joint(4, 5, 0.5, 1.0),  # the tie's end at the plate
+        joint(6, 7, 0.1, 0.4),  # the chimney's foot against the planks
+        joint(7, 8, 0.35, 0.7),
     ]
     if chimney_top_joint:
-        joints.append(_joint(6, 8, 0.9, 0.5))
+        joints.append(joint(6, 8, 0.9, 0.5))
     return beams, joints
 
 
@@ -94,7 +76,7 @@ def test_a_tie_high_above_timber_left_on_the_floor_is_not_loose():
     assert not loose(beams, joints, in_frame, FrameParams()).any()
     # timber on the floor beside a tie on the floor still is loose
     floor_tie = member_between("tie", "tie", [6.4, -4.4, 0.1], [6.4, 4.4, 0.1], 0.2, 0.2, Z)
-    beams[4] = _cuboid(floor_tie)
-    beams[7] = _cuboid(member_between("t", "x", [3.7, -2.0, 0.1], [3.7, 0.0, 0.1], 0.19, 0.19, Z))
+    beams[4] = cuboid_of(floor_tie)
+    beams[7] = cuboid_of(member_between("t", "x", [3.7, -2.0, 0.1], [3.7, 0.0, 0.1], 0.19, 0.19, Z))
     in_frame = np.array([True] * 5 + [False, False, True])
     assert loose(beams, joints, in_frame, FrameParams()).tolist() == [False] * 7 + [True]

@@ -18,7 +18,7 @@ from pyheracles.synthetic.families.roof_frame import member_between
 Z = np.array([0.0, 0.0, 1.0])
 
 
-def _cuboid(m) -> BeamCuboid:
+def cuboid_of(m) -> BeamCuboid:
     return BeamCuboid(
         centre=np.asarray(m.centre, float),
         axes=np.column_stack([m.axis, m.side, m.up]),
@@ -39,10 +39,10 @@ def _frame_and_ladder():
                             np.array([1.0, 0, 0]))  # fmt: skip
     # from the floor (z 0.2) up to the post's side, 0.7 m below its top past a rafter
     ladder = member_between("ladder", "x", [0.6, 1.2, 0.2], [0.12, 0.0, 2.4], 0.06, 0.05, Z)
-    return [_cuboid(m) for m in (tie, post, rafter, ladder)]
+    return [cuboid_of(m) for m in (tie, post, rafter, ladder)]
 
 
-def _joint(a: int, b: int, at_a: float, at_b: float) -> Joint:
+def joint(a: int, b: int, at_a: float, at_b: float) -> Joint:
     return Joint(members=(a, b), point=np.zeros(3), type="T", distance_m=0.0, at=(at_a, at_b))
 
 
@@ -51,11 +51,11 @@ def test_a_ladder_touching_two_members_at_its_upper_half_leans():
     # the ladder's axis rises from its foot: its foot is at 0, its top at 1
     assert beams[3].axis[2] > 0
     joints = [
-        _joint(1, 2, 0.5, 0.0),  # post on the tie
-        _joint(1, 3, 0.0, 0.0),  # rafter's foot on the tie
-        _joint(2, 3, 1.0, 1.0),  # rafter at the post's head
-        _joint(2, 4, 0.7, 1.0),  # the ladder's top against the post
-        _joint(3, 4, 0.6, 0.75),  # ... and its side past the rafter
+        joint(1, 2, 0.5, 0.0),  # post on the tie
+        joint(1, 3, 0.0, 0.0),  # rafter's foot on the tie
+        joint(2, 3, 1.0, 1.0),  # rafter at the post's head
+        joint(2, 4, 0.7, 1.0),  # the ladder's top against the post
+        joint(3, 4, 0.6, 0.75),  # ... and its side past the rafter
     ]
     out = leaning(beams, joints, np.ones(4, bool), FrameParams())
     assert out.tolist() == [False, False, False, True]
@@ -64,11 +64,11 @@ def test_a_ladder_touching_two_members_at_its_upper_half_leans():
 def test_a_strut_joined_at_its_foot_does_not_lean():
     beams = _frame_and_ladder()
     joints = [
-        _joint(1, 2, 0.5, 0.0),
-        _joint(1, 3, 0.0, 0.0),
-        _joint(2, 3, 1.0, 1.0),
-        _joint(2, 4, 0.7, 1.0),
-        _joint(1, 4, 0.6, 0.05),  # its foot on the tie: a strut, not a ladder
+        joint(1, 2, 0.5, 0.0),
+        joint(1, 3, 0.0, 0.0),
+        joint(2, 3, 1.0, 1.0),
+        joint(2, 4, 0.7, 1.0),
+        joint(1, 4, 0.6, 0.05),  # its foot on the tie: a strut, not a ladder
     ]
     out = leaning(beams, joints, np.ones(4, bool), FrameParams())
     assert not out[3]

@@ -9,31 +9,31 @@ import numpy as np
 from pyheracles.supports import SupportParams, detect_supports
 
 
-def _grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray:
+def grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray:
     """``(M, 2)`` points every ``step`` metres over a rectangle."""
     u, v = np.meshgrid(np.arange(u0, u1 + 1e-9, step), np.arange(v0, v1 + 1e-9, step))
     return np.c_[u.ravel(), v.ravel()]
 
 
-def _box_sides(lo, hi, step: float) -> np.ndarray:
+def box_sides(lo, hi, step: float) -> np.ndarray:
     """Points on the four vertical faces of the box ``lo``-``hi`` (x, y, z corners)."""
     (x0, y0, z0), (x1, y1, z1) = lo, hi
     out = []
     for x in (x0, x1):
-        yz = _grid(y0, y1, z0, z1, step)
+        yz = grid(y0, y1, z0, z1, step)
         out.append(np.c_[np.full(len(yz), x), yz])
     for y in (y0, y1):
-        xz = _grid(x0, x1, z0, z1, step)
+        xz = grid(x0, x1, z0, z1, step)
         out.append(np.c_[xz[:, 0], np.full(len(xz), y), xz[:, 1]])
     return np.vstack(out)
 
 
-def _horizontal(x0, x1, y0, y1, z: float, step: float) -> np.ndarray:
-    xy = _grid(x0, x1, y0, y1, step)
+def horizontal(x0, x1, y0, y1, z: float, step: float) -> np.ndarray:
+    xy = grid(x0, x1, y0, y1, step)
     return np.c_[xy, np.full(len(xy), z)]
 
 
-def _tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
+def tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
     n = max(8, int(2 * np.pi * radius / step))
     t = np.linspace(0, 2 * np.pi, n, endpoint=False)
     z = np.arange(z0, z1 + 1e-9, step)
@@ -50,12 +50,10 @@ def _pulpit(centre, floor_m: float, step: float) -> np.ndarray:
     cx, cy = centre
     return np.vstack(
         [
-            _tube(centre, 0.12, 0.0, floor_m, step),
-            _box_sides((cx - 0.6, cy - 0.5, floor_m), (cx + 0.6, cy + 0.5, floor_m + 1.05), step),
-            _box_sides(
-                (cx - 0.55, cy - 0.45, floor_m), (cx + 0.55, cy + 0.45, floor_m + 1.0), step
-            ),
-            _horizontal(cx - 0.6, cx + 0.6, cy - 0.5, cy + 0.5, floor_m, step),
+            tube(centre, 0.12, 0.0, floor_m, step),
+            box_sides((cx - 0.6, cy - 0.5, floor_m), (cx + 0.6, cy + 0.5, floor_m + 1.05), step),
+            box_sides((cx - 0.55, cy - 0.45, floor_m), (cx + 0.55, cy + 0.45, floor_m + 1.0), step),
+            horizontal(cx - 0.6, cx + 0.6, cy - 0.5, cy + 0.5, floor_m, step),
         ]
     )
 
@@ -70,9 +68,9 @@ def test_pulpit_tub_under_a_ceiling_is_no_pier() -> None:
     step = 0.03
     room = np.vstack(
         [
-            _horizontal(0.0, 8.0, 0.0, 5.0, 0.0, step),  # floor
-            _horizontal(0.0, 8.0, 0.0, 5.0, 4.84, step),  # flat ceiling
-            _box_sides((1.7, 2.25, 0.0), (2.3, 2.75, 4.84), step),  # a 0.6 x 0.5 m pier
+            horizontal(0.0, 8.0, 0.0, 5.0, 0.0, step),  # floor
+            horizontal(0.0, 8.0, 0.0, 5.0, 4.84, step),  # flat ceiling
+            box_sides((1.7, 2.25, 0.0), (2.3, 2.75, 4.84), step),  # a 0.6 x 0.5 m pier
             _pulpit((5.5, 2.5), 2.0, step),  # the tub from 2.0 to 3.05 m
         ]
     )
