@@ -130,8 +130,12 @@ def part_slabs(
     axis: per sector of angle (``sectors`` of them) with at least ``min_points``
     points, a vertex at the centroid of its outer surface's points; fewer than 3
     sectors give no slab.  A sparse slab (fewer than 4 x ``min_points`` points a
-    sector) is outlined by the convex hull of its points moved ``noise`` inwards.
-    Each slab is then extruded from ``t0`` to ``t1`` as an extra body item.
+    sector) is outlined by the convex hull of its points moved ``noise`` inwards, less
+    the points standing out of the outline their neighbours in angle draw (mixed
+    pixels, floor returns: :func:`_no_radial_spikes`).  Adjacent runs of fewer than
+    ``3 x min_points`` points are joined first (:func:`_merge_sparse_runs`), so a sparse
+    part is kept, not dropped.  Each slab is then extruded from ``t0`` to ``t1`` as an
+    extra body item.
     """
     out: list[tuple[Array, float, float]] = []
     if len(local) == 0 or not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
