@@ -21,6 +21,7 @@ from pyheracles import InputError, PointCloud
 from pyheracles.complex import ComplexParams, prepare_layers, resolve_params, segment_complex
 from pyheracles.complex.clusters import porous_points, vote_scattered
 from pyheracles.evaluate import evaluate_by_feature
+from test_complex_eaves import ahn3_and_bgt, building_labels
 
 
 @cache
@@ -128,27 +129,16 @@ def test_ahn3_eave_returns_stay_with_their_roofs(shared_data: Path) -> None:
     amid the roof's last returns.  A vote over 8 points lost 1175 of the reference's
     pass-through points, over 17 points 977."""
     from pyheracles.evaluate import reference_from_polygons
-    from pyheracles.io import read_cloud, read_layer
 
-    data = shared_data / "delft_ahn3"
-    cloud = read_cloud(data / "ahn3_tile1.laz")
-    layers = {
-        "building": read_layer(data / "bgt" / "bgt_pand.sqlite"),
-        "wall": read_layer(data / "bgt" / "bgt_scheiding.sqlite"),
-    }
-    cloud = replace(cloud, crs=layers["building"].crs)
-    layers = prepare_layers(layers, cloud)
+    cloud, layers = ahn3_and_bgt(shared_data)
     seg = segment_complex(cloud, layers, ComplexParams(ground="class")).segmentation
     cls = np.asarray(cloud.attributes["classification"])
     ref = reference_from_polygons(
         cloud.world_xyz()[:, :2], cls == 6, layers["building"], buffer_m=1.0
     )
-    b = seg.objects[seg.objects["class"] == "building"]
-    lut = np.zeros(int(seg.instance.max()) + 1, dtype=np.int64)
-    lut[b["instance"].to_numpy()] = b["source_fid"].to_numpy() + 1
     rn = np.asarray(cloud.attributes["return_number"])
     through = (rn >= 1) & (rn < np.asarray(cloud.attributes["number_of_returns"]))
-    lost = (ref > 0) & (lut[seg.instance] != ref) & through
+    lost = (ref > 0) & (building_labels(seg) != ref) & through
     assert lost.sum() < 1080
 
 
