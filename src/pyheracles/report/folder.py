@@ -213,16 +213,20 @@ def _sample_index(inst: NDArray[np.int64], max_points: int, rng: np.random.Gener
     if n <= max_points:
         return np.arange(n)
     keep = rng.random(n) < max_points / n
-    ids = np.unique(inst)
-    small = ids[ids > 0]
-    if len(small):
-        order = np.argsort(inst, kind="stable")
-        starts = np.searchsorted(inst[order], small)
-        ends = np.searchsorted(inst[order], small, side="right")
+    # only the objects the random share leaves under their quota need their points
+    # listed; sorting all labels instead cost 1 s on 10 M points
+    labelled = inst > 0
+    if labelled.any():
+        total = np.bincount(inst[labelled])
+        kept = np.bincount(inst[labelled & keep], minlength=len(total))
+        short = np.flatnonzero((total > 0) & (kept < np.minimum(total, 300)))
+        rows = np.flatnonzero(np.isin(inst, short))
+        order = rows[np.argsort(inst[rows], kind="stable")]
+        starts = np.searchsorted(inst[order], short)
+        ends = np.searchsorted(inst[order], short, side="right")
         for s, e in zip(starts, ends, strict=True):
             take = order[s:e]
-            if keep[take].sum() < min(len(take), 300):
-                keep[rng.choice(take, min(len(take), 300), replace=False)] = True
+            keep[rng.choice(take, min(len(take), 300), replace=False)] = True
     return np.flatnonzero(keep)
 
 
