@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from pyheracles.cloud import PointCloud
 from pyheracles.complex.cookie import GridIndex, to_local
 from pyheracles.complex.params import LEVEL_SAMPLE, ComplexParams
+from pyheracles.complex.platforms import platform_tops
 from pyheracles.errors import InputError
 from pyheracles.groundfilters.footprints import FootprintGroundParams, raised_in_footprints
 
@@ -78,7 +79,13 @@ def raised_ground(
     spacing_m: float,
     cloud: PointCloud,
 ) -> NDArray[np.bool_]:
-    """Ground points on platforms, plinths, steps and low walls inside the buffered polygons."""
+    """Ground points on platforms, plinths, steps and low walls inside the buffered polygons.
+
+    Those standing clearly above the terrain around the polygons (see
+    :func:`~pyheracles.groundfilters.footprints.raised_in_footprints`), and with
+    ``params.platform_tops`` the points continuing their tops (see
+    :func:`~pyheracles.complex.platforms.platform_tops`).
+    """
     geoms = [to_local(g.geometry.to_numpy(), cloud.offset) for g in layers.values() if len(g)]
     if not geoms:
         return np.zeros(len(xyz), dtype=bool)
@@ -90,7 +97,15 @@ def raised_ground(
         cell_m=max(0.5, spacing_m),
         min_height_m=float(params.raised_ground_m),  # type: ignore[arg-type]
     )
-    return raised_in_footprints(xyz, ground, np.concatenate(geoms), fp)
+    polygons = np.concatenate(geoms)
+    released = raised_in_footprints(xyz, ground, polygons, fp)
+    if params.platform_tops and released.any():
+        # the points of a released top that its noise or a slope left under the cut
+        released |= platform_tops(
+            xyz, ground & ~released, released, polygons, fp.buffer_m,
+            float(params.cluster_distance_m),  # type: ignore[arg-type]
+        )  # fmt: skip
+    return released
 
 
 def ground_level(

@@ -177,6 +177,13 @@ class ComplexParams:
         (see :func:`pyheracles.groundfilters.footprints.raised_in_footprints`).
         Metres; ``None`` keeps the ground filter's answer.  A classification
         given with the input (``ground="class"``) is kept as it is.
+    platform_tops
+        Ground points inside the polygons that continue a released platform top
+        (nearer its level, the median of the released points within the clustering
+        distance, than the terrain under them) are released too (see
+        :func:`pyheracles.complex.platforms.platform_tops`): a platform's noise or the
+        slope under it left a quarter to a half of some low platforms under the
+        release threshold (complex family draw 24).  ``False`` turns this off.
     layer_order
         Names of the layers in processing order; ``None`` orders them
         automatically, lowest objects first (thesis section 5.2).
@@ -211,6 +218,7 @@ class ComplexParams:
     crown_share: float = 0.2
     ground: str = "auto"
     raised_ground_m: float | None = 0.2
+    platform_tops: bool = True
     layer_order: tuple[str, ...] | None = None
     clustering: str = "auto"
     seed: int = 0
