@@ -9,7 +9,7 @@ from pyheracles.synthetic.families.church import draw_params
 from pyheracles.synthetic.families.church_geometry import add_wall
 from pyheracles.synthetic.families.church_layout import build_church
 from pyheracles.synthetic.scanner import TLSStation, scan
-from pyheracles.synthetic.scene import Scene
+from pyheracles.synthetic.scene import GROUND, Scene
 from pyheracles.walls import segment_walls
 from pyheracles.walls.reveals import RevealParams, pane_mask
 
@@ -24,6 +24,16 @@ def _door_scan(seed: int, name: str, inside: list, outside: list, step: float,
     wall = next(w for w in plan.walls if w.name == name)
     scene = Scene()
     objs = add_wall(scene, wall)
+    # the ground outside and the floor inside at z = 0, as in the draw: the outer
+    # face runs on down to the wall's z_bottom_m, 4 m lower, and without them the
+    # stations saw it there (from inside, under the inner face's foot)
+    a, b = np.asarray(wall.p0, dtype=float), np.asarray(wall.p1, dtype=float)
+    along = (b - a) / np.linalg.norm(b - a)
+    out = np.array([along[1], -along[0]])  # the inside is to the left of p0 -> p1
+    e0, e1 = a - 20 * along, b + 20 * along
+    for near, far, part in ((0.0, 30.0, "ground"), (-wall.thickness_m, -30.0, "floor")):
+        quad = [e0 + near * out, e1 + near * out, e1 + far * out, e0 + far * out]
+        scene.add_quad([[x, y, 0.0] for x, y in quad], part=part, material=GROUND)
     st = [TLSStation(tuple(x), step_deg=step, elevation_deg=(-60, 75)) for x in inside + outside]
     xyz = scan(scene, st, rng=0).xyz
     keep = (xyz[:, 0] > box[0]) & (xyz[:, 0] < box[1]) & (xyz[:, 2] < box[2])

@@ -62,6 +62,12 @@ class WallParams:
         An opening whose foot is within this height of the foot of one of the wall's
         faces (the floor inside, the ground outside) is a door (0.2 m: a threshold or
         a step; a window's sill is higher).
+    max_floor_rise_m
+        A face whose foot under an opening stands more than this above the wall's
+        foot there (its lowest face's) stands on no floor or ground but on a roof (a
+        clerestory over an aisle's lean-to roof, 3.5 m and more above the floor): an
+        opening from its foot is a window, whose sill is measured (1.5 m; a door's
+        threshold above the ground outside is lower).
     max_mullion_m
         Lights of one window side by side (or one above the other) separated by
         mullions or transoms up to this width are one opening (the wall's void that
@@ -88,6 +94,7 @@ class WallParams:
     min_opening_m: float = 0.25
     min_opening_area_m2: float = 0.1
     door_step_m: float = 0.2
+    max_floor_rise_m: float = 1.5
     max_mullion_m: float = 0.0
     snap_m: float = 1.0
     assumed_thickness_m: float = 0.3
@@ -95,7 +102,7 @@ class WallParams:
     def __post_init__(self) -> None:
         positive = ("distance_m", "min_length_m", "min_height_m", "min_area_m2", "cell_m",
                     "min_opening_m", "min_opening_area_m2", "max_thickness_m",
-                    "assumed_thickness_m")  # fmt: skip
+                    "assumed_thickness_m", "max_floor_rise_m")  # fmt: skip
         for name in positive:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):

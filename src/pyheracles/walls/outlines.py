@@ -7,7 +7,7 @@ from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening, WallParams
 from pyheracles.walls.openings import face_spacing, merge_lights, refine_edges
-from pyheracles.walls.reveals import reveal_edges
+from pyheracles.walls.reveals import fill_edges, reveal_edges
 
 __all__ = [
     "dense_cells",
@@ -130,6 +130,7 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     if k:
         feet = [_foot(fo, c) for fo in dense]  # each face's own (floor, ground)
         step = max(2, int(np.ceil(p.door_step_m / c)) + 1)
+        rise = p.max_floor_rise_m / c
         # points through the wall plane, on the grid
         pij = np.floor((uz_all - lo) / c).astype(np.int64)
         inside = np.all((pij >= 0) & (pij < shape), axis=1)
@@ -149,7 +150,14 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
             if sl[0].start == 0 or sl[0].stop == nu or sl[1].stop >= shape[1]:
                 continue  # open to the wall's end or top: not enclosed
             at_foot = bool(np.any(sl[1].start <= bot[sl[0]] + 1))
-            on_floor = at_foot or any(sl[1].start <= np.median(ft[sl[0]]) + step for ft in feet)
+            # a face's foot is a floor (inside) or the ground (outside) unless it stands
+            # over the wall's foot by more than max_floor_rise_m: a clerestory's outer
+            # face stands on an aisle's roof, and its windows' holes start at that foot
+            # (church draws 12 and 15: taken for doors, their sills never measured)
+            base = float(np.median(bot[sl[0]]))
+            grounded = [ft for ft in feet if np.median(ft[sl[0]]) - base <= rise]
+            on_floor = at_foot or any(sl[1].start <= np.median(ft[sl[0]]) + step
+                                      for ft in grounded)  # fmt: skip
             grown = ndimage.binary_dilation(lab == m, iterations=1)
             z_lo = sl[1].start + (2 if on_floor else 0)
             sel = np.zeros(len(uz_all), dtype=bool)
@@ -193,9 +201,15 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 u0 = u0 if np.isnan(found[0]) or u0 - found[0] > sp else found[0]
                 u1 = u1 if np.isnan(found[1]) or found[1] - u1 > sp else found[1]
                 z1 = z1 if np.isnan(found[3]) else found[3]
+                if not on_floor:  # a splayed face's hole, the other face's not measured
+                    # (a clerestory's outer face on an aisle's roof, open to its foot
+                    # here and sparse; church draws 12 and 15: sills 0.2-0.3 m low,
+                    # 0.1-0.4 m wide): the glass, in from every side by one splay
+                    fill = fill_edges(uz_all[box], depth[box], *grid)  # type: ignore[index]
+                    u0, u1, z0, z1 = _splay_to_fill(fill, grid, (u0, u1, z0, z1), c)
             if on_floor:  # a door: the opening through the wall starts at the highest
                 # face foot under it (the floor inside above a step down outside)
-                levels = [lo[1] + float(np.median(ft[sl[0]])) * c for ft in feet]
+                levels = [lo[1] + float(np.median(ft[sl[0]])) * c for ft in grounded]
                 if side is not None:
                     levels += floor_levels(uz_all, front & near, side, u0 + c, u1 - c, z0,
                                            p.door_step_m + c, p.distance_m)  # fmt: skip
@@ -258,6 +272,32 @@ def slim_runs(holes: NDArray[np.bool_], n: int, foot: NDArray[np.int64]) -> NDAr
     np.add.at(cum, (cols[drop], starts[drop]), 1)
     np.add.at(cum, (cols[drop], ends[drop]), -1)
     return holes & ~(np.cumsum(cum, axis=1)[:, :-1] > 0)
+
+
+def _splay_to_fill(fill: tuple[float, float, float, float], hole: tuple[float, ...],
+                   edges: tuple[float, float, float, float], c: float,
+                   ) -> tuple[float, float, float, float]:  # fmt: skip
+    """Edges ``(u0, u1, z0, z1)`` of a window: ``edges``, or its glass's (``fill``, from
+    :func:`~pyheracles.walls.reveals.fill_edges`) where the glass stands inside the
+    grid's ``hole`` by one splay: in from both jambs and the sill by more than two
+    cells ``c`` each, and by the same within two cells (the head too when it is in by
+    as much; else ``edges``' head).
+
+    The grid's hole is where every face is open; where one face does not close it
+    (sparse, or hidden below by a roof) it is a splayed face's hole, the opening grown
+    by the splay on every side, and the faces' edges are the splay's or a mix.  Glass
+    seen over part of its pane (its lower part hidden behind the sill from scanners
+    below, one side in a reveal's shadow) stands in from one or two edges only, and
+    is no measure of the opening.
+    """
+    if not np.all(np.isfinite(fill)):
+        return edges
+    off = np.array([fill[0] - hole[0], hole[1] - fill[1], fill[2] - hole[2], hole[3] - fill[3]])
+    lo, hi = off[:3].min(), off[:3].max()
+    if lo <= 2 * c or hi - lo > 2 * c:
+        return edges
+    head = fill[3] if max(hi, off[3]) - min(lo, off[3]) <= 2 * c else edges[3]
+    return fill[0], fill[1], fill[2], head
 
 
 def _threshold(z0: float, feet: list[float], step: float) -> float:

@@ -17,7 +17,7 @@ import numpy as np
 
 from pyheracles.walls.model import Array
 
-__all__ = ["RevealParams", "pane_mask", "reveal_edges", "reveal_peak"]
+__all__ = ["RevealParams", "fill_edges", "pane_mask", "reveal_edges", "reveal_peak"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,9 @@ class RevealParams:
     inward_m
         Farthest an edge is looked for inside the grid's hole (0.4 m: the widest splay
         of a reveal, 0.35 m, and a cell).
+    fill_points
+        Fewest points of the fill (glass and cames within ``pane_m`` of its depth)
+        from which :func:`fill_edges` measures an opening (10).
     pane_m, fill_share, fill_m
         Points within ``pane_m`` (0.03 m) of the glass, cames or leaf are no reveal: of
         the median depth of the points in the opening's middle, and for a door of each
@@ -68,6 +71,7 @@ class RevealParams:
     coverage: float = 0.5
     depth_m: float = 0.03
     inward_m: float = 0.4
+    fill_points: int = 10
     pane_m: float = 0.03
     fill_share: float = 0.1
     fill_m: float = 0.1
@@ -187,3 +191,29 @@ def reveal_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: f
                         dq[centre])  # fmt: skip
     sill = nan  # its straight part faces up, out of sight of scanners below
     return left, right, sill, head
+
+
+def fill_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: float,
+               p: RevealParams | None = None) -> tuple[float, float, float, float]:  # fmt: skip
+    """Jambs, sill and head of the glass filling an opening (NaN: fewer than
+    ``fill_points`` points of it in the grid's hole ``u0``-``u1`` x ``z0``-``z1``).
+
+    The glass and its cames fill a window at its narrowest section (a pane set in the
+    straight reveal behind a splay): the points of the hole within ``pane_m`` of the
+    fill's depth (:func:`pane_mask`) span the opening, each edge put by the second
+    outermost of them (a stray return beyond one is left out).  Glass returns few
+    points, and those of its lower part are hidden from scanners below behind the sill
+    (church draw 4: the lowest 0.1-0.4 m above the sill), so the edges are for an
+    opening whose faces do not measure it (see :func:`~pyheracles.walls.outlines.wall_outline`).
+    """
+    p = p or RevealParams()
+    nan = float("nan")
+    hole = (uz[:, 0] > u0) & (uz[:, 0] < u1) & (uz[:, 1] > z0) & (uz[:, 1] < z1)
+    q, dq = uz[hole], depth[hole]
+    if len(q) < p.fill_points:
+        return nan, nan, nan, nan
+    fill = q[~pane_mask(q, dq, u0, u1, z0, z1, p)]
+    if len(fill) < p.fill_points:
+        return nan, nan, nan, nan
+    us, zs = np.sort(fill[:, 0]), np.sort(fill[:, 1])
+    return float(us[1]), float(us[-2]), float(zs[1]), float(zs[-2])
