@@ -21,7 +21,9 @@ of the scoring) and measures, per draw:
 * ``tilt_err_deg`` per leaning column: angle between the fitted cylinder
   axis (``axis_x/y/z`` of the objects table) and the true axis (target 0.3 deg);
 * ``pier_box_err_m`` per pier: largest difference of the sorted horizontal box
-  sides (target 2 cm);
+  sides (target 2 cm), over the sides that can be measured: both faces across a side
+  were scanned (:func:`observable_sides`); ``pier_box_err_whole_max_m`` over all sides
+  and ``n_pier_sides_unobservable`` say what that leaves out;
 * the attic split: point accuracy of attic vs body, and the share of support
   points put in the attic.
 
@@ -126,7 +128,8 @@ def score_supports(
     near = valid & (np.abs(res.xyz[:, 2] - section_height) <= 0.025)
     in_slab = np.bincount(ref[near], minlength=len(n_ref))
     class_ok = 0
-    radius_err, radius_err_mean, tilt_err, box_err = {}, {}, {}, {}
+    radius_err, radius_err_mean, tilt_err, box_err, box_err_whole = {}, {}, {}, {}, {}
+    n_unobservable = 0
     for i in visible:
         row = rows[i]
         p = match.get(i, 0)
@@ -171,9 +174,17 @@ def score_supports(
                     else float("nan")
                 )
         if row["class"] == "pier" and cls == "pier":
-            true = sorted([row["box_width_m"], row["box_depth_m"]], reverse=True)
-            got = [f["box_length_m"], f["box_width_m"]]
-            box_err[i] = float(np.max(np.abs(np.subtract(got, true))))
+            sides = sorted(
+                zip((row["box_width_m"], row["box_depth_m"]), observable_sides(res, valid, row),
+                    strict=True),
+                reverse=True,
+            )  # fmt: skip
+            err = np.abs(np.subtract([f["box_length_m"], f["box_width_m"]], [v for v, _ in sides]))
+            box_err_whole[i] = float(np.max(err))
+            seen = [k for k, (_, both) in enumerate(sides) if both]
+            n_unobservable += 2 - len(seen)
+            if seen:
+                box_err[i] = float(np.max(err[seen]))
     failures += _overlap_failures(sim, pred, ref, valid, visible, match, pclass, attic_mask)
     f1s = np.array([f1.get(i, 0.0) if np.isfinite(f1.get(i, 0.0)) else 0.0 for i in visible])
     # a stump found anyway is neither a support missed nor a false one
@@ -201,6 +212,8 @@ def score_supports(
         "n_leaning": sum(1 for i in visible if rows[i]["tilt_deg"] > 0),
         "pier_box_err_max_m": _absmax(box_err),
         "pier_box_err_m": {str(k): round(v, 4) for k, v in box_err.items()},
+        "pier_box_err_whole_max_m": _absmax(box_err_whole),
+        "n_pier_sides_unobservable": n_unobservable,
     }
     if attic_mask is not None:
         out.update(_attic_scores(sim, np.asarray(attic_mask, bool), valid, ref))
@@ -208,6 +221,44 @@ def score_supports(
     out["failures"] = failures
     out["failure_modes"] = sorted({f["mode"] for f in failures})
     return out
+
+
+#: A pier's face is seen when this many of its points lie within ``FACE_TOL_M`` of it.
+MIN_FACE_POINTS = 20
+FACE_TOL_M = 0.02
+
+
+def observable_sides(res: Any, valid: np.ndarray, row: dict) -> tuple[bool, bool]:
+    """Whether a true pier's width and depth can be measured from its scan: both faces
+    across each were seen (``MIN_FACE_POINTS`` of its shaft's points within
+    ``FACE_TOL_M`` of each face plane, inside the face: not on the edges where the faces
+    beside it end).
+
+    A face turned away from every station has no points; nothing measures the side
+    across it (supports draw 7: three of its piers show one face of each pair).  Their
+    box error against the whole section is ``pier_box_err_whole_max_m``.
+    """
+    own = valid & (res.instance == row["instance"])
+    pts = res.xyz[own]
+    z0 = row["z_bottom"] + row["parts"]["shaft"][0]
+    z1 = row["z_bottom"] + row["parts"]["shaft"][1]
+    pts = pts[(pts[:, 2] > z0) & (pts[:, 2] < z1)]
+    axis = np.asarray(row["axis_direction"], dtype=np.float64)
+    base = np.asarray(row["axis_base"], dtype=np.float64)
+    # the axis at each point's height (a leaning pier's section moves with it)
+    centre = base[:2] + np.outer((pts[:, 2] - base[2]) / axis[2], axis[:2])
+    yaw = np.radians(row["box_yaw_deg"])
+    c, s = np.cos(yaw), np.sin(yaw)
+    q = (pts[:, :2] - centre) @ np.array([[c, -s], [s, c]])
+    half = 0.5 * np.array([row["box_width_m"], row["box_depth_m"]])
+
+    def seen(k: int, sign: float) -> bool:
+        on = np.abs(q[:, k] - sign * half[k]) <= FACE_TOL_M
+        # inside the face: the faces beside it end on its edges
+        on &= np.abs(q[:, 1 - k]) <= half[1 - k] - 2.0 * FACE_TOL_M
+        return int(np.count_nonzero(on)) >= MIN_FACE_POINTS
+
+    return seen(0, 1.0) and seen(0, -1.0), seen(1, 1.0) and seen(1, -1.0)
 
 
 def _absmax(d: dict[int, float]) -> float:
