@@ -101,6 +101,21 @@ def test_terrain_plane_on_a_slope_and_on_a_line() -> None:
     assert terrain_plane(line, np.array([[1.0, 1.0]]))[0] == pytest.approx(3.5)  # median
 
 
+def test_released_given_with_class_ground_must_be_a_mask_of_the_points() -> None:
+    from pyheracles import InputError
+    from pyheracles.complex import segment_complex
+
+    xyz, is_top, is_terrain, poly = _scene()
+    cls = np.where(is_terrain, 2, 1).astype(np.uint8)
+    cloud = PointCloud(xyz=xyz, offset=np.zeros(3), crs="EPSG:28992",
+                       attributes={"classification": cls})  # fmt: skip
+    layers = {"building": gpd.GeoDataFrame({"fid": ["B1"]}, geometry=[poly], crs="EPSG:28992")}
+    with pytest.raises(InputError, match="released"):
+        segment_complex(cloud, layers, ComplexParams(ground="class"), released=is_top[:10])
+    res = segment_complex(cloud, layers, ComplexParams(ground="class"), released=is_top)
+    assert not res.segmentation.ground[is_top].any()
+
+
 def test_params_switch() -> None:
     assert ComplexParams().platform_tops
     assert not replace(ComplexParams(), platform_tops=False).platform_tops

@@ -286,6 +286,8 @@ def segment_complex(
     cloud: PointCloud,
     layers: Mapping[str, gpd.GeoDataFrame],
     params: ComplexParams | None = None,
+    *,
+    released: NDArray[np.bool_] | None = None,
 ) -> ComplexResult:
     """Split a complex's cloud into one object per GIS feature, plus ground and remainder.
 
@@ -298,6 +300,12 @@ def segment_complex(
         in the cloud's CRS (see :func:`prepare_layers`).
     params
         Parameters; automatic values are derived from the point spacing.
+    released
+        With ``params.ground="class"``: the points the caller took off its ground as
+        platforms, plinths and steps (see
+        :func:`pyheracles.complex.raised_ground_points`), so that they are treated as
+        step 1 treats the ground it releases itself (the clutter rule never takes them
+        off a building).  Ignored when step 1 computes the ground.
 
     Returns
     -------
@@ -344,11 +352,17 @@ def segment_complex(
     ]
     through = pass_through_of(cloud.attributes)  # the echoes, for the ground and foliage
     ground = ground_mask(cloud, rp, max(sizes) if sizes else 20.0, through)
+    given = released
     released = np.zeros(n, dtype=bool)
     if rp.raised_ground_m is not None and rp.ground != "class" and ground.any():
         # platforms, plinths, steps and low walls are the features', not terrain
         released = ground & raised_ground(layers, xyz, ground, rp, spacing, cloud)
         ground = ground & ~released
+    elif given is not None and rp.ground == "class":
+        given = np.asarray(given, dtype=bool)
+        if given.shape != (n,):
+            raise InputError(f"released must be a mask of the {n} points, got {given.shape}")
+        released = given & ~ground
     timings["ground"] = time.perf_counter() - t
 
     t = time.perf_counter()

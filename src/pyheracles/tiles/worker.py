@@ -223,6 +223,7 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
     cloud = PointCloud.from_world(world, attributes=attrs, crs=job.crs, source=str(job.tile.path))
     del world
     params = job.params
+    released = None
     if params.ground in ("auto", "csf", "smrf"):
         # the city's parameters and world-aligned cells: the single-cloud run's rasters
         ground = extract_ground(
@@ -232,8 +233,10 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
         ).mask  # fmt: skip
         near = {k: v for k, v in job.layers.items() if len(v)}
         if params.raised_ground_m is not None and ground.any() and near:
-            # as segment_complex does after its own ground filter (skipped for "class")
-            ground &= ~raised_ground_points(near, cloud, ground, params, job.spacing_m)
+            # as segment_complex does after its own ground filter (skipped for "class");
+            # passed on, so that the clutter rule spares them as it does there
+            released = raised_ground_points(near, cloud, ground, params, job.spacing_m)
+            ground &= ~released
         attrs = dict(cloud.attributes)
         attrs["classification"] = np.where(ground, 2, 1).astype(np.uint8)
         cloud = replace(cloud, attributes=attrs)
@@ -246,7 +249,7 @@ def segment_tile(job: SegmentJob) -> dict[str, Any]:
         if params.layer_order is not None:  # a layer with no feature near this tile is absent
             present = tuple(c for c in params.layer_order if c in layers)
             params = replace(params, layer_order=present)
-        result = segment_complex(cloud, layers, params)
+        result = segment_complex(cloud, layers, params, released=released)
         seg = result.segmentation
         ground_mask = seg.ground if seg.ground is not None else np.zeros(len(cloud), bool)
         order = result.layer_order
