@@ -424,29 +424,45 @@ def member_shape(
     ``deflection_m`` close to 0.02.
     """
     p = (params or ShapeParams()).validate()
-    sign = _handedness(cub)
     if not own.any():
         return _empty(0, "no points")
     # candidates of the later passes: near the straight cuboid, not another beam's
     lo, hi = search_box(cub, p)
     found = (index or BoxIndex(xyz)).query(lo, hi) if box is None else box
-    found_loc = _local(cub, xyz[found])
+    own_found = own[found]
     use = np.ones(len(found), dtype=bool)
     if other is not None:
-        use &= ~other[found] | own[found]
+        use &= ~other[found] | own_found
     if blocked is not None:
-        use &= own[found] | ~blocked[found]
+        use &= own_found | ~blocked[found]
     for oc in others if blocked is None else ():
         c = oc.corners()
         if np.any(c.max(axis=0) < lo) or np.any(c.min(axis=0) > hi):
             continue
-        use &= own[found] | (oc.signed_distance(xyz[found]) > p.surface_tol_m)
+        use &= own_found | (oc.signed_distance(xyz[found]) > p.surface_tol_m)
+    return _shape(xyz, cub, p, found, own_found, np.flatnonzero(own), use)
+
+
+def _shape(
+    xyz: Array,
+    cub: BeamCuboid,
+    p: ShapeParams,
+    found: NDArray[np.int64],
+    own_found: NDArray[np.bool_],
+    own_index: NDArray[np.int64],
+    use: NDArray[np.bool_],
+) -> MemberShape:
+    """:func:`member_shape` from the beam's search box: its points ``found`` (sorted
+    indices), which of them are the beam's own (``own_found``) and may be used
+    (``use``), and all the beam's own points (``own_index``, sorted; some may lie
+    out of the box)."""
+    sign = _handedness(cub)
+    found_loc = _local(cub, xyz[found])
     cand = found_loc[use]
-    own_found = own[found]
-    if int(own_found.sum()) == int(own.sum()):  # first pass: the beam's own points
+    if int(own_found.sum()) == len(own_index):  # first pass: the beam's own points
         loc = found_loc[own_found]
     else:  # some lie out of the search box
-        loc = _local(cub, xyz[own])
+        loc = _local(cub, xyz[own_index])
     own_ends = scanned_ends(loc[:, 0], p.slice_m, p.min_face_points)
     corr = None
     for _ in range(p.passes):
@@ -559,11 +575,13 @@ def _near_bent_surface(
     ang = np.interp(a, t_s, th)
     c, s = np.cos(ang), np.sin(ang)
     u, v = c * u + s * v, -s * u + c * v
-    q = np.column_stack([np.abs(a), np.abs(u), np.abs(v)]) - 0.5 * np.array(
-        [cub.length + 2 * extend, cub.width, cub.height]
-    )
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-    inside = np.minimum(q.max(axis=1), 0.0)
+    # the box's signed distance, one coordinate at a time (no (n, 3) arrays)
+    qa = np.abs(a) - 0.5 * (cub.length + 2 * extend)
+    qu = np.abs(u) - 0.5 * cub.width
+    qv = np.abs(v) - 0.5 * cub.height
+    ma, mu, mv = np.maximum(qa, 0.0), np.maximum(qu, 0.0), np.maximum(qv, 0.0)
+    outside = np.sqrt(ma * ma + mu * mu + mv * mv)
+    inside = np.minimum(np.maximum(np.maximum(qa, qu), qv), 0.0)
     return np.abs(outside + inside) <= tol
 
 
@@ -608,21 +626,27 @@ def member_shapes(
     labels = np.asarray(labels)
     if labels.shape != (len(xyz),):
         raise InputError(f"labels must have one value per point ({len(xyz)}), got {labels.shape}")
-    assigned = labels > 0
     beams = list(beams)
     boxes, count, which = near_beams(xyz, beams, p, BoxIndex(xyz))
-    return [
-        member_shape(
-            xyz,
-            cub,
-            labels == i + 1,
-            p,
-            other=assigned,
-            blocked=(count >= 2) | ((count == 1) & (which != i)),
-            box=boxes[i],
-        )
-        for i, cub in enumerate(beams)
-    ]
+    # each beam's own points (sorted indices), from one sort of the labels, and every
+    # mask taken over the beam's search box only (not the whole cloud once per beam)
+    order = np.argsort(labels, kind="stable")
+    starts = np.searchsorted(labels[order], np.arange(len(beams) + 2))
+    out = []
+    for i, cub in enumerate(beams):
+        own_index = order[starts[i + 1] : starts[i + 2]]
+        if len(own_index) == 0:
+            out.append(_empty(0, "no points"))
+            continue
+        found = boxes[i]
+        lab = labels[found]
+        own_found = lab == i + 1
+        n_near = count[found]
+        blocked = (n_near >= 2) | ((n_near == 1) & (which[found] != i))
+        # not another beam's point, and not near another beam's cuboid unless its own
+        use = ((lab <= 0) | own_found) & (own_found | ~blocked)
+        out.append(_shape(xyz, cub, p, found, own_found, own_index, use))
+    return out
 
 
 def search_box(cub: BeamCuboid, params: ShapeParams) -> tuple[Array, Array]:
@@ -689,5 +713,7 @@ class BoxIndex:
         d = int(np.argmin([b - a for a, b in spans]))
         a, b = spans[d]
         pts = self.points[d][a:b]
-        inside = np.all((pts >= lo) & (pts <= hi), axis=1)
+        inside = (pts[:, 0] >= lo[0]) & (pts[:, 0] <= hi[0])
+        for k in (1, 2):
+            inside &= (pts[:, k] >= lo[k]) & (pts[:, k] <= hi[k])
         return np.sort(self.order[d][a:b][inside])
