@@ -66,35 +66,45 @@ def test_pulpit_post_under_a_ceiling_is_no_column() -> None:
 
 
 def test_broken_columns_of_a_ruin_stay() -> None:
-    """Under the open sky nothing carries: broken columns (2.0 m) and a post (1.5 m) are
-    all kept (the post is left to the thin-column rule, it is 0.8 of their radius)."""
+    """Under the open sky the broken columns (2.0 m) carry nothing and are all kept; the
+    pulpit post (1.5 m, 0.8 of their radius) carries its tub below the tops they stand
+    to, and goes (draw 3: a fence post carrying its rail among broken columns)."""
     xyz = _room(None, 1.5)
     found = detect_supports(xyz, SupportParams(section_height_m=1.0))
-    assert (found.objects["class"] == "column").sum() == 5, found.objects
+    assert (found.objects["class"] == "column").sum() == 4, found.objects
+    assert (found.objects["z_max"] > 1.9).all()
 
 
 def test_low_carriers_by_level() -> None:
     """The carried level is the median underside of what the supports carry: a column on
     a dais reaching it from a higher floor stays, and one seen only from 1.35 to 2.58 m
-    that carries the ceiling (draw 36); a low one goes, carrying or not, where most
-    supports carry; in a ruin (most carry nothing) only a low carrier goes."""
+    that carries the ceiling (draw 36); a low column goes, carrying or not, where most
+    supports carry, a pier carrying something low stays (a gallery may cut it: held-out
+    draw 44); in a ruin (most carry nothing) only a low carrier goes, pier or column (a
+    post under its rail: draw 3), below the median top of the supports carrying
+    nothing when fewer than three carry."""
     col = {"class": "column", "z_min": 0.0, "z_max": 2.6}
     rows = [col] * 4 + [
         {"class": "column", "z_min": 0.8, "z_max": 2.6},  # on a dais
         {"class": "column", "z_min": 1.35, "z_max": 2.58},  # foot and top unseen
         {"class": "column", "z_min": 0.0, "z_max": 1.5},  # a post under its tub
         {"class": "column", "z_min": 0.0, "z_max": 1.8},  # a post, its tub unseen
-        {"class": "pier", "z_min": 0.0, "z_max": 1.5},  # piers: the prism rule
+        {"class": "pier", "z_min": 0.0, "z_max": 1.5},  # cut by a gallery / a post
         {"class": "engaged_column", "z_min": 0.0, "z_max": 1.5},
     ]
     inf = float("inf")
     carried_z = [2.62] * 6 + [1.52, inf, 1.52, 1.52]
     carries = [True] * 7 + [False, True, True]
     assert low_carriers(rows, carries, carried_z) == {6, 7}
-    ruin = [False] * 6 + [True, False, False, False]
-    assert low_carriers(rows, ruin, carried_z) == set()  # fewer than three carry
+    ruin = [False] * 6 + [True, False, False, False]  # one carries, at 1.52 m
+    assert low_carriers(rows, ruin, carried_z) == {6}  # the others stand to 2.6 m
+    ruin[8] = True  # the pier on a post carries too: two carry, eight stand free
+    assert low_carriers(rows, ruin, carried_z) == {6, 8}
+    high = [2.62 if c else inf for c in ruin]  # a block still lying on them, up high
+    assert low_carriers(rows, ruin, high) == set()
     few = [True] * 3 + [False] * 7
     assert low_carriers(rows, few, carried_z) == set()  # a ruin: low free ones are broken
+    assert low_carriers(rows[:3], [False, False, True], carried_z[:3]) == set()  # too few
 
 
 def test_foot_of_a_wall_piece_on_a_podium() -> None:

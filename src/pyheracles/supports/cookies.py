@@ -17,9 +17,14 @@ from pyheracles.supports.piers import (
     FOOT_REACH_M,
     FOOT_TO_M,
     MAX_NARROW_LAYERS,
-    foot_on_wall_line,
+    UPPER_FROM_M,
+    UPPER_TO_M,
+    WallLine,
+    flush_wall_ends,
     narrow_share,
     rect_coords,
+    walled_at_both_ends,
+    walled_piece,
 )
 from pyheracles.supports.profile import (
     attached_share,
@@ -266,14 +271,13 @@ def extract_support(
         share = attached_share(
             pts[free, :2], z[free], rho[free], sh["centre"], sh["buffer"], RING_M, sc, (lo, hi)
         )
+        feet = foot_levels(cpts[:, 2], floor_z, ftol)
+        own_top = float(cpts[:, 2].max()) if np.isfinite(top_z) else None
         if sh["class"] == "pier" and (
             share > MAX_ATTACHED_SHARE
-            or any(
-                wall_at_foot(p, pts, rho, sh, sc, h_sec, foot, height_band)
-                for foot in foot_levels(cpts[:, 2], floor_z, ftol)
-            )
-        ):  # joined to a wall in most layers, or the wall runs on from its foot: a wall
-            # piece between openings (tall windows with low sills)
+            or wall_piece_in_bands(p, pts, rho, sh, sc, h_sec, feet, own_top, height_band)
+        ):  # joined to a wall in most layers, or the wall runs on from its foot or over
+            # the lintels beside it: a wall piece between openings
             sh["wall_edge"] = True
             return None
         if share > MAX_ATTACHED_SHARE:
@@ -287,10 +291,13 @@ def extract_support(
             )  # fmt: skip
             if face is not None:
                 sh["class"], sh["normal"], sh["d"] = "engaged_column", face[0], face[1]
-    if np.isfinite(top_z):
-        need = params.min_height_fraction * (top_z - floor_z)
-    else:  # carries nothing: a broken column or one under the open sky
-        need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
+    # a support carrying nothing (a broken column, one under the open sky) stands
+    # min_free_height_m tall; one carrying something no lower, whatever it "carries" (a
+    # sign board on its post, a pile of debris under a fallen block), and spans
+    # min_height_fraction of the height up to what it carries (its foot or top may be
+    # in the shadow: its own points need not reach its floor)
+    free_need = min(params.min_free_height_m, params.min_height_fraction * (z_range[1] - floor_z))
+    need = params.min_height_fraction * (top_z - floor_z) if np.isfinite(top_z) else free_need
     own_top = float(cpts[:, 2].max())
     sh["carries"] = bool(np.isfinite(top_z))
     sh["carried_z"] = float(top_z)
@@ -298,7 +305,7 @@ def extract_support(
     # over it (a pulpit's post under its tub's rim) may stand under what it does not carry
     sh["reaches"] = sh["carries"] and reaches_carried(own_top, floor_z, top_z)
     sh["overhead"] = 0.0 if sh["reaches"] else overhead_cover(z[ring], ang[ring], own_top)
-    if height < need:
+    if height < need or own_top - floor_z < free_need:
         return None  # a chair, a sign board, a fence post: not a support
     if (
         sh["class"] == "pier"
@@ -339,7 +346,7 @@ def foot_levels(z: Array, floor_z: float, ftol: float) -> tuple[float, ...]:
 
     The floor of a cookie is a low quantile of its ring (:func:`floor_level`): at the
     edge of a podium the ring holds the ground outside, 0.5-1 m below the floor the
-    support stands on, and the foot band of :func:`wall_at_foot` then lay in the
+    support stands on, and the foot band of :func:`wall_piece_in_bands` then lay in the
     podium's side (draw 15 of the supports family: the wall between two windows,
     standing on the podium with the wall below the sills, was a pier).  The floor stays
     a candidate: a jamb whose own lowest points were cut off above it stands in its
@@ -378,24 +385,74 @@ def offset(xy: Array, sh: dict) -> tuple[Array, Array]:
 FOOT_OWN_M = 0.15
 
 
-def wall_at_foot(
+def wall_piece_in_bands(
     p: Array,
     pts: Array,
     rho: Array,
     sh: dict,
     sc: Scales,
     h_sec: float,
-    floor_z: float,
+    feet: tuple[float, ...],
+    top: float | None,
     height_band: Callable[[float, float], NDArray[np.intp]] | None,
 ) -> bool:
-    """Whether a pier candidate's foot stands in a wall face
-    (:func:`~pyheracles.supports.piers.foot_on_wall_line`) among the points of ``p`` in
-    its foot band (from ``height_band``) within ``FOOT_REACH_M`` of its outline and
-    beyond ``FOOT_OWN_M`` of it; ``pts``, ``rho`` are the cookie's points and offsets."""
-    own = own_section(rho, pts[:, 2], h_sec, sc)
-    if height_band is None or np.count_nonzero(own) < 10:
+    """Whether a pier candidate is a piece of a wall: its foot stands in a wall face
+    (:func:`~pyheracles.supports.piers.foot_on_wall_line`, at any of the heights
+    ``feet``), or, when it carries
+    something (``top``: its own highest point, None if it carries nothing), wall faces
+    flush with its faces run on beyond both of its ends at its foot or in the band
+    under its top (:data:`~pyheracles.supports.piers.UPPER_FROM_M` to
+    :data:`~pyheracles.supports.piers.UPPER_TO_M` below it), one end in one band and
+    the other in the other if need be
+    (:func:`~pyheracles.supports.piers.walled_at_both_ends`).
+
+    The wall between a door and a window, or between two doors, stands free from the
+    floor up to the lintels and is cut off like a pier; the wall above the lintels is
+    one with it and runs on beyond its ends below the ceiling it reaches (supports draw
+    29).  A pier carries what rests on it: the arches of an arcade spring from its
+    top, a beam or an architrave lies over it, and nothing of a wall stands beside it
+    under its top."""
+    cell = max(0.05, 3.0 * sc.spacing)
+    n_foot = max(1, int(np.ceil((FOOT_TO_M - FOOT_FROM_M) / cell)))
+    foot_lines = []
+    for foot in feet:
+        band = (foot + FOOT_FROM_M, foot + FOOT_TO_M)
+        lines = band_wall_lines(p, pts, rho, sh, sc, h_sec, band, height_band, n_foot)
+        if walled_piece(lines):
+            return True
+        foot_lines.append(lines)
+    if top is None:
         return False
-    band = height_band(floor_z + FOOT_FROM_M, floor_z + FOOT_TO_M)
+    upper = band_wall_lines(
+        p, pts, rho, sh, sc, h_sec, (top - UPPER_FROM_M, top - UPPER_TO_M), height_band
+    )
+    if not upper:
+        return False
+    axis = np.array([np.cos(sh["angle"]), np.sin(sh["angle"])])
+    return any(walled_at_both_ends(lines + upper, axis) for lines in foot_lines or [[]])
+
+
+def band_wall_lines(
+    p: Array,
+    pts: Array,
+    rho: Array,
+    sh: dict,
+    sc: Scales,
+    h_sec: float,
+    z_band: tuple[float, float],
+    height_band: Callable[[float, float], NDArray[np.intp]] | None,
+    n_layers: int | None = None,
+) -> list[WallLine]:
+    """The wall faces flush with a pier candidate's faces in the height band ``z_band``
+    and the ends they run on beyond (:func:`~pyheracles.supports.piers.flush_wall_ends`),
+    among the points of ``p`` in that band (from ``height_band``) within
+    ``FOOT_REACH_M`` of its outline and beyond ``FOOT_OWN_M`` of it; ``pts``, ``rho``
+    are the cookie's points and offsets, its own faces those at its section ``h_sec``;
+    ``n_layers``: the band's height layers (by default its height over the layer)."""
+    own = own_section(rho, pts[:, 2], h_sec, sc)
+    if height_band is None or np.count_nonzero(own) < 10 or z_band[1] <= z_band[0]:
+        return []
+    band = height_band(*z_band)
     q = np.take(p, band, axis=0)
     reach = float(np.hypot(*sh["half"])) + FOOT_REACH_M
     near = np.flatnonzero(np.max(np.abs(q[:, :2] - sh["centre"]), axis=1) <= reach)
@@ -403,10 +460,12 @@ def wall_at_foot(
     r_off, _ = offset(q[:, :2], sh)
     q = q[(r_off > max(FOOT_OWN_M, 2.0 * sc.tol)) & (r_off <= FOOT_REACH_M)]
     cell = max(0.05, 3.0 * sc.spacing)
-    layer = np.floor((q[:, 2] - floor_z - FOOT_FROM_M) / cell).astype(np.int64)
+    layer = np.floor((q[:, 2] - z_band[0]) / cell).astype(np.int64)
+    if n_layers is None:
+        n_layers = max(1, int(np.ceil((z_band[1] - z_band[0]) / cell)))
     rng = np.random.default_rng(0)
     c = sh["centre"]
-    return foot_on_wall_line(q[:, :2] - c, layer, pts[own, :2] - c, sc.tol, cell, rng)
+    return flush_wall_ends(q[:, :2] - c, layer, pts[own, :2] - c, sc.tol, cell, rng, n_layers)
 
 
 def own_section(rho: Array, z: Array, h_sec: float, sc: Scales) -> NDArray[np.bool_]:

@@ -413,8 +413,11 @@ def low_carriers(
     carried_z: list[float],
     sparse: list[bool] | None = None,
 ) -> set[int]:
-    """Indices of the columns, and of the piers found in the thick section only
-    (``sparse``), that end below the building's carried level.
+    """Indices of the columns, of the piers found in the thick section only
+    (``sparse``) and, in a ruin, of the piers that carry something, that end below the
+    building's carried level (in a ruin where fewer than :data:`MIN_CARRYING` supports
+    carry, the median top of those carrying nothing, and only those that carry are
+    judged: a post carrying its rail among broken columns).
 
     ``rows``: objects-table rows (``class``, ``z_min``, ``z_max``); ``carries``: whether
     each carries something; ``carried_z``: the underside of what it carries (metres).
@@ -430,16 +433,28 @@ def low_carriers(
     missed is judged by what it carries, not by its points (draw 36: a column seen
     from 1.35 to 2.58 m under a ceiling at 2.8 m).  A pier found in the thick section
     only is judged alike (draw 1: a scaffold's standard 8 m tall beside a column, under
-    a roof carried at 14.7 m); one the thin section found is not, its top may be
-    shadowed (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m)."""
+    a roof carried at 14.7 m); one the thin section found only in a ruin, by what it
+    carries (draw 3: a fence post 1.6 m tall carried its rail among broken columns
+    3.9 m tall), not by its points when it carries nothing: its top may be shadowed
+    (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
+    building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
+    m tall cut at 4.1 m)."""
     levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
-    if len(levels) < MIN_CARRYING:
-        return set()
-    level = float(np.median(levels))
-    standing = 2 * len(levels) >= len(rows)
+    if len(levels) >= MIN_CARRYING:
+        level = float(np.median(levels))
+        standing = 2 * len(levels) >= len(rows)
+    else:  # a ruin: its supports stand to the median top of those carrying nothing
+        free_tops = [float(r["z_max"]) for r, c in zip(rows, carries, strict=True) if not c]
+        if len(free_tops) < MIN_CARRYING or 2 * len(levels) >= len(rows):
+            return set()
+        level, standing = float(np.median(free_tops)), False
     out = set()
     for k, (r, c, t) in enumerate(zip(rows, carries, carried_z, strict=True)):
-        judged = r["class"] == "column" or (sparse is not None and sparse[k])
+        judged = (
+            r["class"] == "column"
+            or (sparse is not None and sparse[k])
+            or (r["class"] == "pier" and c and not standing)  # a post under its rail
+        )
         if not judged or not (c or standing):
             continue
         top = t if c and np.isfinite(t) else float(r["z_max"])

@@ -219,6 +219,11 @@ FOOT_TO_M = 0.5
 FOOT_REACH_M = 1.5
 #: A wall face runs on beside a wall piece's foot over at least this length, metres.
 FOOT_COVER_M = 0.3
+#: The wall above the lintels of the openings beside a wall piece is looked for in the
+#: band from this far below the candidate's own top ...
+UPPER_FROM_M = 0.5
+#: ... up to this far below it (clear of what it carries and of the ceiling's noise), metres.
+UPPER_TO_M = 0.1
 #: Two walls meet at a corner piece: their directions at least 45 degrees apart.
 CORNER_COS = float(np.cos(np.radians(45.0)))
 
@@ -249,6 +254,85 @@ def face_lines(
         inl[np.flatnonzero(rest)[np.abs(p @ nrm[b] - off[b]) <= tol]] = True
         out.append((dv[b], float(off[b]), inl))
         rest &= ~inl
+    return out
+
+
+#: A wall face flush with a face of a pier candidate: its unit direction, whether it runs
+#: on beyond the candidate's low / high end along that direction, and whether the
+#: candidate shows that face (its own section points lie along at least
+#: :data:`SHOWN_SHARE` of it).
+WallLine = tuple[Array, tuple[bool, bool], bool]
+#: A candidate shows a face when its own points lie along at least this share of it: a
+#: pier standing against a wall has no face of its own on the wall's face, only the
+#: ends of its sides.
+SHOWN_SHARE = 0.5
+
+
+def flush_wall_ends(
+    foot_xy: Array,
+    foot_layer: NDArray[np.int64],
+    own_xy: Array,
+    tol: float,
+    cell: float,
+    rng: np.random.Generator,
+    n_layers: int,
+) -> list[WallLine]:
+    """The wall faces flush with a face of a pier candidate in a height band, and the
+    ends of the candidate they run on beyond.
+
+    Parameters
+    ----------
+    foot_xy, foot_layer
+        Points of the band within :data:`FOOT_REACH_M` of the candidate's outline
+        (relative to its centre) and their height layer (of ``cell``) in the band.
+    own_xy
+        The candidate's own surface points at its section (its faces, same origin).
+    tol, cell
+        Surface tolerance and layer / bin size, metres.
+    rng
+        Random generator of the line search.
+    n_layers
+        Height layers in the band.
+
+    Returns
+    -------
+    list of (direction, (low end, high end), shown)
+        Per line among the three main lines of the band's points that runs on the line
+        of the candidate's own outermost face points across it (within ``tol``: flush
+        with a face), its unit direction, whether it covers :data:`FOOT_COVER_M` of
+        that line beyond the candidate's low / high end along that direction in at
+        least half the layers of the band, and whether the candidate shows that face
+        (:data:`WallLine`).
+    """
+    if len(foot_xy) < 20 or len(own_xy) < 10:
+        return []
+    need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
+    out: list[WallLine] = []
+    for d, off, inl in face_lines(foot_xy, tol, rng, n_lines=3):
+        nrm = np.array([-d[1], d[0]])
+        lo_ac, hi_ac = np.quantile(own_xy @ nrm, [0.02, 0.98])
+        if min(abs(lo_ac - off), abs(hi_ac - off)) > tol:
+            continue  # not flush with a face of the candidate
+        on_face = np.abs(own_xy @ nrm - off) <= tol
+        lo, hi = np.quantile(own_xy @ d, [0.02, 0.98])
+        n_bins = max(1, int(np.ceil((hi - lo) / cell)))
+        bins = np.floor((own_xy[on_face] @ d - lo) / cell)
+        shown = len(np.unique(bins[(bins >= 0) & (bins < n_bins)])) >= SHOWN_SHARE * n_bins
+        f_al = foot_xy[inl] @ d
+        end = f_al > hi
+        dist = np.where(end, f_al - hi, lo - f_al)
+        beyond = dist > tol
+        if np.count_nonzero(beyond) < need:
+            continue
+        # per layer and per end, the bins of the line beyond the candidate holding points
+        key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
+            dist[beyond] / cell
+        ).astype(np.int64)
+        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
+        full = ids[counts >= need]  # (layer, end) pairs with the wall face covered
+        walled = [np.count_nonzero(full % 2 == e) >= 0.5 * n_layers for e in (0, 1)]
+        if any(walled):
+            out.append((d, (walled[0], walled[1]), bool(shown)))
     return out
 
 
@@ -286,46 +370,54 @@ def foot_on_wall_line(
     Returns
     -------
     bool
-        Whether one of the three main lines of the foot points runs on the line of the
-        candidate's own outermost face points across it (within ``tol``: flush with a
-        face; the section rectangle of an L-shaped wall piece is turned, its faces are
-        not) and covers :data:`FOOT_COVER_M` of that line beyond both of the candidate's
-        ends in at least half the layers of the band (a piece between two openings), or
-        two such lines at least 45 degrees apart beyond one end each (a corner piece).
-        A wall ending flush in a pier beyond one end only is an anta's (a low cella
-        wall ending in a pier that carries the pediment): the pier stays a pier.
+        Whether a flush wall face (:func:`flush_wall_ends`) runs on beyond both of the
+        candidate's ends (a piece between two openings), or two at least 45 degrees
+        apart beyond one end each (a corner piece).  A wall ending flush in a pier
+        beyond one end only is an anta's (a low cella wall ending in a pier that carries
+        the pediment): the pier stays a pier.
     """
-    if len(foot_xy) < 20 or len(own_xy) < 10:
-        return False
     n_layers = max(1, int(np.ceil((FOOT_TO_M - FOOT_FROM_M) / cell)))
-    need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
+    return walled_piece(flush_wall_ends(foot_xy, foot_layer, own_xy, tol, cell, rng, n_layers))
+
+
+def walled_piece(lines: list[WallLine]) -> bool:
+    """Whether the flush wall faces of one height band (:func:`flush_wall_ends`) make a
+    pier candidate a piece of a wall: one runs on beyond both of its ends, or two at
+    least 45 degrees apart beyond one end each (see :func:`foot_on_wall_line`)."""
     one_end: list[Array] = []  # directions of the flush lines walled beyond one end
-    for d, off, inl in face_lines(foot_xy, tol, rng, n_lines=3):
-        nrm = np.array([-d[1], d[0]])
-        lo_ac, hi_ac = np.quantile(own_xy @ nrm, [0.02, 0.98])
-        if min(abs(lo_ac - off), abs(hi_ac - off)) > tol:
-            continue  # not flush with a face of the candidate
-        lo, hi = np.quantile(own_xy @ d, [0.02, 0.98])
-        f_al = foot_xy[inl] @ d
-        end = f_al > hi
-        dist = np.where(end, f_al - hi, lo - f_al)
-        beyond = dist > tol
-        if np.count_nonzero(beyond) < need:
-            continue
-        # per layer and per end, the bins of the line beyond the candidate holding points
-        key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
-            dist[beyond] / cell
-        ).astype(np.int64)
-        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
-        full = ids[counts >= need]  # (layer, end) pairs with the wall face covered
-        walled = [np.count_nonzero(full % 2 == e) >= 0.5 * n_layers for e in (0, 1)]
+    for d, walled, _ in lines:
         if all(walled):
             return True  # the wall runs on beyond both ends: a piece between openings
-        if any(walled):
-            if any(abs(float(d @ other)) < CORNER_COS for other in one_end):
-                return True  # two walls meeting at it: a corner piece
-            one_end.append(d)
+        if any(abs(float(d @ other)) < CORNER_COS for other in one_end):
+            return True  # two walls meeting at it: a corner piece
+        one_end.append(d)
     return False
+
+
+def walled_at_both_ends(lines: list[WallLine], axis: Array) -> bool:
+    """Whether flush wall faces found in several height bands (:func:`flush_wall_ends`
+    of each band), on faces the candidate shows, together run on beyond both ends of a
+    pier candidate along one of its axes.
+
+    The piece of a wall between a door and a window is walled beyond one end at its
+    foot (below the window's sill) and beyond the other above the door's lintel only;
+    neither band alone runs on beyond both.  A pier standing against a wall (a respond,
+    supports draw 37) is flush with the wall's face on its back, which it does not show
+    (its sides end there); its own faces stand out in the room.  ``axis`` is the unit
+    direction of the candidate's first side; each line's ends are taken along the side
+    it runs with."""
+    ax = np.asarray(axis, dtype=np.float64)
+    sides = (ax, np.array([-ax[1], ax[0]]))
+    ends: set[tuple[int, int]] = set()
+    for d, walled, shown in lines:
+        if not shown:
+            continue
+        k = 0 if abs(float(d @ sides[0])) >= abs(float(d @ sides[1])) else 1
+        flip = int(float(d @ sides[k]) < 0)  # the line runs against the side: ends swap
+        for e, w in enumerate(walled):
+            if w:
+                ends.add((k, e ^ flip))
+    return any({(k, 0), (k, 1)} <= ends for k in (0, 1))
 
 
 #: A pier (broken or carrying) must be a prism as wide as its section: a
