@@ -10,12 +10,22 @@ from pyheracles.beams.model import StraightFacet
 
 __all__ = [
     "UnionFind",
+    "face_filled",
     "face_runs",
     "group_facets",
     "inconsistent",
     "pair_relation",
     "spans_barrier",
 ]
+
+
+#: Length of the slices a gap between two pieces of one face is read in, metres.
+FILL_SLICE_M = 0.05
+#: A slice of a gap holds the face when it has at least this share of the points the
+#: two pieces hold per slice on average.
+FILL_DENSITY_SHARE = 0.25
+#: A gap is filled by the face when at least this share of its slices hold the face.
+FILLED_SLICE_SHARE = 0.8
 
 
 class UnionFind:
@@ -270,6 +280,76 @@ def group_facets(
     return group
 
 
+def face_filled(
+    xyz: NDArray[np.float64],
+    tree: cKDTree,
+    fill: NDArray[np.bool_],
+    fa: StraightFacet,
+    fb: StraightFacet,
+    ta: tuple[float, float],
+    tb: tuple[float, float],
+    plane_tol: float,
+) -> bool:
+    """Whether the gap between two pieces of one face is filled by the face's points.
+
+    Parameters
+    ----------
+    xyz
+        ``(N, 3)`` coordinates, metres.
+    tree
+        KD-tree on ``xyz``.
+    fill
+        ``(N,)`` the points that may show the face between the pieces (in no
+        straight facet and in no wide surface).
+    fa, fb
+        The two pieces: coplanar, on one band line (:func:`pair_relation`).
+    ta, tb
+        Their extents along ``fa.axis`` (1 % and 99 % quantiles), metres.
+    plane_tol
+        Distance to ``fa``'s plane within which a point lies on the face, metres.
+
+    Returns
+    -------
+    bool
+        True when at least ``FILLED_SLICE_SHARE`` of the gap's slices
+        (``FILL_SLICE_M`` long) hold, within the band of the narrower piece and
+        on the plane, ``FILL_DENSITY_SHARE`` of the points the pieces hold per
+        slice: a face seen head-on, whose range noise lies all across it,
+        breaks into regions too small for a straight facet, yet its points go
+        on; a shadow or the end of a member leaves the gap empty.
+    """
+    g0, g1 = min(ta[1], tb[1]), max(ta[0], tb[0])
+    if g1 <= g0:
+        return True
+    across = np.cross(fa.normal, fa.axis)
+    d = fb.centre - fa.centre
+    # the band's centre line, halfway between the pieces' centre lines
+    base = fa.centre + 0.5 * (d @ across) * across + 0.5 * (d @ fa.normal) * fa.normal
+    base = base - (base @ fa.axis) * fa.axis
+    half_w = 0.5 * min(fa.width, fb.width)
+    n_sl = max(1, int(np.ceil((g1 - g0) / FILL_SLICE_M)))
+    sl = (g1 - g0) / n_sl
+    mids = g0 + (np.arange(n_sl) + 0.5) * sl
+    centres = base + mids[:, None] * fa.axis
+    near = tree.query_ball_point(centres, np.hypot(half_w, 0.5 * sl) + plane_tol)
+    per_m = (len(fa.index) + len(fb.index)) / max(fa.length + fb.length, 1e-9)
+    need = FILL_DENSITY_SHARE * per_m * sl
+    held = 0
+    for k, idx in enumerate(near):
+        idx = np.asarray(idx, dtype=np.int64)
+        idx = idx[fill[idx]]
+        if len(idx) < need:
+            continue
+        q = xyz[idx] - centres[k]
+        on = (
+            (np.abs(q @ fa.normal) <= plane_tol)
+            & (np.abs(q @ across) <= half_w)
+            & (np.abs(q @ fa.axis) <= 0.5 * sl)
+        )
+        held += int(np.count_nonzero(on) >= need)
+    return held >= FILLED_SLICE_SHARE * n_sl
+
+
 def face_runs(
     xyz: NDArray[np.float64],
     facets: list[StraightFacet],
@@ -278,26 +358,37 @@ def face_runs(
     parallel_deg: float,
     max_gap_m: float,
     width_range: tuple[float, float],
-) -> list[list[int]]:
+    fill: NDArray[np.bool_] | None = None,
+    tree: cKDTree | None = None,
+    max_filled_gap_m: float = 0.0,
+) -> list[list[list[int]]]:
     """Pieces of one face: the facets ``which`` joined by continuation only.
 
     A beam seen on one face only (its sides too sparse, too grazing or hidden
     for a facet) leaves that face as straight facets that no group takes, often
     in pieces cut by crossing members.  Pieces that continue each other
     (:func:`pair_relation` ``"continuation"``: coplanar, on one band line, of
-    similar width, gap at most ``max_gap_m``) are joined.
+    similar width, gap at most ``max_gap_m``) are joined into a run.  With
+    ``fill`` (the points in no facet and no wide surface) and ``tree`` (a
+    KD-tree on ``xyz``), runs farther apart, up to ``max_filled_gap_m``, are
+    grouped when the face's points fill the gap between two of their pieces
+    (:func:`face_filled`).
 
     Returns
     -------
-    list of list of int
-        Facet indices of each run, largest (points) first.
+    list of list of list of int
+        Per group, its runs (facet indices of each); groups largest (points)
+        first, a group's runs largest first.  Without ``fill`` every group holds
+        one run.
     """
     which = np.asarray(which, dtype=np.int64)
     if len(which) == 0:
         return []
     cos_par = np.cos(np.radians(parallel_deg))
     plane_tol = max(3.0 * float(np.median([facets[i].plane_rms for i in which])), 0.01)
-    uf = UnionFind(len(which))
+    filled = fill is not None and tree is not None and max_filled_gap_m > max_gap_m
+    runs_uf = UnionFind(len(which))
+    filled_links: list[tuple[int, int]] = []
     spans = []
     for i in which:
         t = xyz[facets[i].index] @ facets[i].axis
@@ -319,12 +410,35 @@ def face_runs(
                 cos_par=cos_par,
                 plane_tol=plane_tol,
                 width_range=width_range,
-                max_gap=max_gap_m,
+                max_gap=max_filled_gap_m if filled else max_gap_m,
                 min_overlap=1.0,
             )
-            if rel == "continuation":
-                uf.union(a, b)
+            if rel != "continuation":
+                continue
+            if max(ta[0], tb[0]) - min(ta[1], tb[1]) <= max_gap_m:
+                runs_uf.union(a, b)
+            elif face_filled(
+                xyz,
+                tree,  # type: ignore[arg-type]
+                fill,  # type: ignore[arg-type]
+                fa,
+                fb,
+                ta,
+                tb,
+                plane_tol,
+            ):
+                filled_links.append((a, b))
+    groups_uf = UnionFind(len(which))
+    for a in range(len(which)):
+        groups_uf.union(a, runs_uf.find(a))
+    for a, b in filled_links:
+        groups_uf.union(a, b)
+    size = {int(i): len(facets[i].index) for i in which}
     runs: dict[int, list[int]] = {}
     for a, i in enumerate(which):
-        runs.setdefault(uf.find(a), []).append(int(i))
-    return sorted(runs.values(), key=lambda r: -sum(len(facets[i].index) for i in r))
+        runs.setdefault(runs_uf.find(a), []).append(int(i))
+    groups: dict[int, list[list[int]]] = {}
+    for root, run in runs.items():
+        groups.setdefault(groups_uf.find(root), []).append(run)
+    out = [sorted(g, key=lambda r: -sum(size[i] for i in r)) for g in groups.values()]
+    return sorted(out, key=lambda g: -sum(size[i] for r in g for i in r))

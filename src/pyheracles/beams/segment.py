@@ -234,10 +234,13 @@ def add_one_face_beams(
     bin_m: float,
     tol: float,
     free: NDArray[np.float64] | None = None,
+    fill: NDArray[np.bool_] | None = None,
 ) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
     """Beams seen on one face: runs of the straight facets no beam took.
 
-    The pieces of one face (:func:`~pyheracles.beams.grouping.face_runs`) make
+    The pieces of one face (:func:`~pyheracles.beams.grouping.face_runs`; with
+    ``fill``, the mask of the points in no facet and no wide surface, pieces up
+    to ``max_shadow_m`` apart whose gap the face's points fill are one run) make
     a beam when they form a convex band (:func:`fit_one_face_cuboid`) whose
     centre line is not already in a found beam; largest runs first.  A run
     lying on the face of a beam found on several faces, extended by twice
@@ -254,13 +257,16 @@ def add_one_face_beams(
     fb = facet_beam.copy()
     left = np.flatnonzero(fb == 0)
     probe = xyz[:: max(1, len(xyz) // 50000)]
-    runs = face_runs(
+    groups = face_runs(
         xyz,
         facets,
         left,
         parallel_deg=p.parallel_deg,
         max_gap_m=p.max_gap_m,
         width_range=(p.min_beam_width_m, p.max_beam_width_m),
+        fill=fill,
+        tree=tree,
+        max_filled_gap_m=p.max_shadow_m,
     )
     cos_par = np.cos(np.radians(p.parallel_deg))
 
@@ -274,6 +280,19 @@ def add_one_face_beams(
             max_depth_m=p.max_beam_width_m,
             min_elongation=elongation,
         )
+
+    # runs whose gaps the face's points fill are one face when it makes one band;
+    # otherwise (e.g. a side face whose pieces fit no band together) they are
+    # taken run by run, as pieces apart
+    runs: list[list[int]] = []
+    for g in groups:
+        joined = [i for r in g for i in r]
+        if len(g) > 1 and fit(joined, 2.0 * p.min_elongation) is not None:
+            runs.append(joined)
+        else:
+            runs.extend(g)
+    # largest first (ties: the lowest facet first, the order of the runs alone)
+    runs.sort(key=lambda r: (-sum(len(facets[i].index) for i in r), min(r)))
 
     def fit_pieces(run: list[int]) -> BeamCuboid | None:
         # pieces of two non-parallel faces (the underside here, a side there,
@@ -509,7 +528,7 @@ def segment_beams(
         tol = max(3.0 * float(np.median(rms)) if rms else 0.0, 0.01)
     if p.one_face:
         cuboids, facet_beam = add_one_face_beams(
-            arr, tree, facets, facet_beam, cuboids, p, bin_m, tol, free
+            arr, tree, facets, facet_beam, cuboids, p, bin_m, tol, free, fill=free_mask
         )
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
