@@ -63,7 +63,7 @@ def _scene(rng: np.random.Generator) -> tuple[np.ndarray, gpd.GeoDataFrame]:
     return xyz, layer
 
 
-def _write_las(path: Path, xyz: np.ndarray, crs: str | None = RD) -> Path:
+def write_tile_las(path: Path, xyz: np.ndarray, crs: str | None = RD) -> Path:
     header = laspy.LasHeader(point_format=6, version="1.4")
     header.scales = [0.001, 0.001, 0.001]
     header.offsets = [X0, Y0, 0.0]
@@ -82,12 +82,12 @@ def _write_las(path: Path, xyz: np.ndarray, crs: str | None = RD) -> Path:
 def scene(tmp_path_factory: pytest.TempPathFactory) -> dict:
     root = tmp_path_factory.mktemp("tiles")
     xyz, layer = _scene(np.random.default_rng(3))
-    whole = _write_las(root / "whole.laz", xyz)
+    whole = write_tile_las(root / "whole.laz", xyz)
     tiles = split_las(whole, root / "in", 2, 2)
     return {"root": root, "whole": whole, "tiles": tiles, "layer": layer}
 
 
-def _labels_by_feature(folder: Path) -> tuple[np.ndarray, np.ndarray]:
+def labels_by_feature(folder: Path) -> tuple[np.ndarray, np.ndarray]:
     las = laspy.read(folder / "segmented.laz")
     fid = np.full(len(las.points), -1)
     if (folder / "objects.gpkg").is_file():
@@ -247,7 +247,7 @@ def test_tiles_on_dask_match_single_run_and_resume(scene: dict, tmp_path: Path) 
         got = laspy.read(folder / "segmented.laz")
         assert np.array_equal(got.X, src.X) and np.array_equal(got.Y, src.Y)
         assert np.array_equal(got.reflectance, src.reflectance)
-        fid, ground = _labels_by_feature(folder)
+        fid, ground = labels_by_feature(folder)
         rows = np.array([key[tuple(p)] for p in np.round(np.column_stack(
             [src.x, src.y, src.z]), 3)])  # fmt: skip
         agree += int((fid == ref_fid[rows]).sum())
@@ -266,8 +266,8 @@ def test_tiles_on_dask_match_single_run_and_resume(scene: dict, tmp_path: Path) 
 
 def test_tiles_in_different_crs_refused(tmp_path: Path) -> None:
     xyz, _ = _scene(np.random.default_rng(1))
-    _write_las(tmp_path / "a.laz", xyz[xyz[:, 0] < X0 + 40])
-    _write_las(tmp_path / "b.laz", xyz[xyz[:, 0] >= X0 + 40], crs="EPSG:32631")
+    write_tile_las(tmp_path / "a.laz", xyz[xyz[:, 0] < X0 + 40])
+    write_tile_las(tmp_path / "b.laz", xyz[xyz[:, 0] >= X0 + 40], crs="EPSG:32631")
     with pytest.raises(InputError, match="different CRSs") as exc:
         read_catalog(tmp_path)
     assert "a.laz" in str(exc.value) and "b.laz" in str(exc.value)

@@ -16,7 +16,7 @@ import shapely
 from pyheracles.complex import ComplexParams, prepare_layers, segment_complex
 from pyheracles.io import read_cloud
 from pyheracles.tiles import run_tiles, split_las
-from test_tiles import RD, X0, Y0, _labels_by_feature, _write_las
+from test_tiles import RD, X0, Y0, labels_by_feature, write_tile_las
 
 BOX = (10.0, 10.0, 22.0, 20.0)  # the building's polygon (walls), local metres
 MARGIN = 0.6  # how far its platform reaches beyond the walls
@@ -81,7 +81,7 @@ def _platform_scene(
 @pytest.mark.slow
 def test_tiled_run_keeps_the_platform_as_the_single_run_does(tmp_path: Path) -> None:
     xyz, layer, platform_out = _platform_scene(np.random.default_rng(5))
-    whole = _write_las(tmp_path / "whole.laz", xyz)
+    whole = write_tile_las(tmp_path / "whole.laz", xyz)
     layers = {"building": layer}
     cloud = read_cloud(whole)
     seg = segment_complex(cloud, prepare_layers(layers, cloud), ComplexParams()).segmentation
@@ -98,7 +98,7 @@ def test_tiled_run_keeps_the_platform_as_the_single_run_does(tmp_path: Path) -> 
     tiled = np.full(len(xyz), -2)
     for tile in tiles:
         folder = tmp_path / "out" / "tiles" / tile.name.removesuffix(".laz")
-        fid, _ = _labels_by_feature(folder)
+        fid, _ = labels_by_feature(folder)
         src = read_cloud(tile)
         rows = [key[tuple(p)] for p in np.round(src.world_xyz(), 3)]
         tiled[rows] = fid
