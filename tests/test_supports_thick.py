@@ -10,6 +10,14 @@ import pytest
 from pyheracles.supports import SupportParams, detect_supports
 
 
+def _wall_and_floor() -> tuple[np.ndarray, np.ndarray]:
+    """A dense wall (1 cm, 12 m long, 3.5 m tall at y = -2) and a floor grid (5 cm)."""
+    wx, wz = np.meshgrid(np.arange(0.0, 12.0, 0.01), np.arange(0.0, 3.5, 0.01))
+    wall = np.c_[wx.ravel(), np.full(wx.size, -2.0), wz.ravel()]
+    fx, fy = np.meshgrid(np.arange(-1.0, 12.0, 0.05), np.arange(-2.0, 4.0, 0.05))
+    return wall, np.c_[fx.ravel(), fy.ravel(), np.zeros(fx.size)]
+
+
 def _sparse_pier(cx: float, cy: float, w: float, d: float, n: int, rng) -> np.ndarray:
     """``n`` random points on the four faces of a ``w`` x ``d`` pier 3.5 m tall."""
     s = rng.uniform(0.0, 2 * (w + d), n)
@@ -26,11 +34,7 @@ def test_sparse_piers_found_on_the_thick_section(seed: int) -> None:
     points each (~7 in a 5 cm slab, ~40 in 30 cm) beside a dense wall that sets the
     spacing; a fifth stands against the wall and stays out."""
     rng = np.random.default_rng(seed)
-    g = np.arange(0.0, 12.0, 0.01)
-    wx, wz = np.meshgrid(g, np.arange(0.0, 3.5, 0.01))
-    wall = np.c_[wx.ravel(), np.full(wx.size, -2.0), wz.ravel()]  # dense: 1 cm
-    fx, fy = np.meshgrid(np.arange(-1.0, 12.0, 0.05), np.arange(-2.0, 4.0, 0.05))
-    floor = np.c_[fx.ravel(), fy.ravel(), np.zeros(fx.size)]
+    wall, floor = _wall_and_floor()
     centres = [(1.0 + 2.5 * k, 1.5) for k in range(4)]
     piers = [_sparse_pier(cx, cy, 0.5, 0.4, 500, rng) for cx, cy in centres]
     against = _sparse_pier(11.0, -1.8, 0.5, 0.4, 500, rng)  # touching the wall's face
@@ -63,13 +67,9 @@ def test_a_sparse_post_ending_low_in_a_standing_hall_is_no_pier(seed: int) -> No
     dense piers carry a ceiling at 3.5 m; two sparse piers stand beside them, one up to
     the ceiling and one 1.8 m tall beyond its edge."""
     rng = np.random.default_rng(seed)
-    g = np.arange(0.0, 12.0, 0.01)
-    wx, wz = np.meshgrid(g, np.arange(0.0, 3.5, 0.01))
-    wall = np.c_[wx.ravel(), np.full(wx.size, -2.0), wz.ravel()]  # dense: 1 cm
-    fx, fy = np.meshgrid(np.arange(-1.0, 12.0, 0.05), np.arange(-2.0, 4.0, 0.05))
-    floor = np.c_[fx.ravel(), fy.ravel(), np.zeros(fx.size)]
-    under = fx.ravel() < 9.5  # the low post stands beyond the ceiling: it carries nothing
-    ceiling = np.c_[fx.ravel(), fy.ravel(), np.full(fx.size, 3.5)][under]
+    wall, floor = _wall_and_floor()
+    under = floor[:, 0] < 9.5  # the low post stands beyond the ceiling: it carries nothing
+    ceiling = (floor + [0.0, 0.0, 3.5])[under]
     dense = [
         _box_sides((cx - 0.25, 1.3, 0.0), (cx + 0.25, 1.7, 3.47), 0.03) for cx in (1.0, 3.5, 6.0)
     ]
