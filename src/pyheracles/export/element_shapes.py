@@ -9,6 +9,7 @@ member's section rectangle about its axis.  Used by :mod:`pyheracles.export.ifc`
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -191,7 +192,75 @@ def part_slabs(
             continue
         ring = np.asarray(ring_l)
         out.append((ring, float(edges[g0]), float(edges[g1])))
-    return out
+    return _face_levels(out, q, tq, win, min_points)
+
+
+def _level(t: Array, win: float, top: bool) -> float:
+    """The level of a horizontal face among heights ``t``: the median of those within
+    ``win`` of their 95th (``top``) or 5th percentile, as :func:`part_slabs` takes the
+    outer surface among distances."""
+    edge = float(np.quantile(t, 0.95 if top else 0.05))
+    return float(np.median(t[t >= edge - win] if top else t[t <= edge + win]))
+
+
+def _face_levels(
+    slabs: list[tuple[Array, float, float]], q: Array, tq: Array, win: float, min_points: int
+) -> list[tuple[Array, float, float]]:
+    """Slabs whose ends lie on the measured faces, not on the layers' edges.
+
+    A step between two slabs (a plinth's top, an abacus' underside) is a horizontal face
+    at some height inside a 3 cm layer; ending the slabs at the layer's edge left the
+    face's points up to a layer from the solid (supports draw 0, column 9: a plinth's
+    top face, 5,742 points, 2.4 cm under its slab's top; IFC surface RMS 1.1 cm for the
+    column).  Between two slabs stacked one on the other, the points of the wider one
+    outside the narrower one's outline end at the face: its level (:func:`_level`) is the
+    new boundary, and the narrower slab reaches it.  The lowest slab starts where its
+    points start, the highest ends where they end (on the floor or the entablature
+    the support meets; the band's edge lay up to a layer beyond them; their 1st / 99th
+    percentile instead made 10 of the 10 draws' columns worse, up to 2.6 mm).
+    Boundaries only move inwards (within the slabs' layers), and a slab keeps at least
+    a tenth of a layer.
+    """
+    import shapely
+
+    if not slabs:
+        return slabs
+    rings = [r for r, _, _ in slabs]
+    t0s = [a for _, a, _ in slabs]
+    t1s = [b for _, _, b in slabs]
+    polys = [shapely.Polygon(r).buffer(0) for r in rings]
+    eps = 0.1 * min(b - a for a, b in zip(t0s, t1s, strict=True))
+
+    def inside(small: Any, big: Any) -> bool:  # the small outline within the big one
+        return bool(small.area > 0 and small.difference(big).area < 0.1 * small.area)
+
+    for k in range(len(slabs) - 1):
+        b = t1s[k]
+        if abs(t0s[k + 1] - b) > 1e-9 or not (polys[k].is_valid and polys[k + 1].is_valid):
+            continue
+        lo, hi = t0s[k], t1s[k + 1]
+        if inside(polys[k + 1], polys[k]):  # a step in: the wider slab's top face
+            sel = (tq >= lo) & (tq <= b)
+            own = sel.copy()
+            own[sel] = ~shapely.contains_xy(polys[k + 1], q[sel, 0], q[sel, 1])
+            if own.sum() >= min_points:
+                b = min(b, max(_level(tq[own], win, top=True), lo + eps))
+        elif inside(polys[k], polys[k + 1]):  # a step out: the wider slab's underside
+            sel = (tq >= b) & (tq <= hi)
+            own = sel.copy()
+            own[sel] = ~shapely.contains_xy(polys[k], q[sel, 0], q[sel, 1])
+            if own.sum() >= min_points:
+                b = max(b, min(_level(tq[own], win, top=False), hi - eps))
+        t1s[k], t0s[k + 1] = b, b
+    for k, top in ((0, False), (len(slabs) - 1, True)):
+        sel = (tq >= t0s[k]) & (tq <= t1s[k])
+        if sel.sum() >= min_points:  # the support's own end: the floor, the entablature
+            lv = _level(tq[sel], win, top=top)
+            if top:
+                t1s[k] = min(t1s[k], max(lv, t0s[k] + eps))
+            else:
+                t0s[k] = max(t0s[k], min(lv, t1s[k] - eps))
+    return [(r, a, b) for r, a, b in zip(rings, t0s, t1s, strict=True)]
 
 
 def _merge_sparse_runs(
