@@ -8,13 +8,16 @@ from numpy.typing import NDArray
 from pyheracles.walls.model import Array, Opening
 
 __all__ = [
+    "face_edge_table",
     "face_edges",
     "face_spacing",
     "head_reach",
     "head_sill",
     "isolated_out",
     "merge_lights",
+    "pick_edges",
     "refine_edges",
+    "splay_in",
 ]
 
 
@@ -103,22 +106,75 @@ def refine_edges(
     the gaps between its points along the edge, up to the inner face's wider hole
     through a splayed reveal; a head also upwards as far as :func:`head_reach` lets
     the face measure it (the apex of a pointed head, closed in the grid); an edge
-    nothing measures keeps the grid's value.
+    nothing measures keeps the grid's value.  See :func:`face_edge_table` and
+    :func:`pick_edges` for the two steps.
     """
+    found, spacing = face_edge_table(uz, face_of, u0, u1, z0, z1, c, at_foot, jambs)
+    edges, _ = pick_edges(found, spacing, (u0, u1, z0, z1), c)
+    return edges
+
+
+def face_edge_table(
+    uz: Array,
+    face_of: NDArray[np.int64],
+    u0: float,
+    u1: float,
+    z0: float,
+    z1: float,
+    c: float,
+    at_foot: bool,
+    jambs: tuple[float, float] | None = None,
+) -> tuple[Array, Array]:
+    """Each face's edges of an opening (:func:`face_edges`, its lone points left out
+    by :func:`isolated_out`): ``(F, 4)`` jambs, sill and head (m, NaN: not measured)
+    in the order of ``np.unique(face_of)``, and each face's point spacing (m)."""
     per_face = [isolated_out(uz[face_of == f], c) for f in np.unique(face_of)]
     found = np.array([face_edges(q, u0, u1, z0, z1, c, at_foot, jambs)
                       for q in per_face]).reshape(-1, 4)  # fmt: skip
     spacing = np.array([face_spacing(q) for q in per_face])
+    return found, spacing
+
+
+Edges = tuple[float, float, float, float]
+
+
+def pick_edges(found: Array, spacing: Array, grid: Edges,
+               c: float) -> tuple[Edges, NDArray[np.int64]]:  # fmt: skip
+    """The opening's edges from each face's (``found``, ``spacing``:
+    :func:`face_edge_table`) about the ``grid``'s ``(u0, u1, z0, z1)`` (cell ``c``), as
+    :func:`refine_edges` says, and the row of the face that set each (-1: the grid's)."""
     reach = 2 * c + spacing
     up = np.maximum(2 * c, [head_reach(c, sp) for sp in spacing])  # outwards, the head
-    grid = (u0, u1, z0, z1)
-    out = []
-    for k, (pick, inward) in enumerate(((np.max, 1), (np.min, -1), (np.max, 1), (np.min, -1))):
+    out, src = [], []
+    for k, (pick, inward) in enumerate(((np.argmax, 1), (np.argmin, -1), (np.argmax, 1),
+                                        (np.argmin, -1))):  # fmt: skip
         col = found[:, k]
         move = inward * (col - grid[k])  # > 0: into the opening
         ok = np.isfinite(col) & (move >= (-up if k == 3 else -2 * c)) & (move <= reach)
-        out.append(float(pick(col[ok])) if np.any(ok) else grid[k])
-    return out[0], out[1], out[2], out[3]
+        if np.any(ok):
+            rows = np.flatnonzero(ok)
+            best = int(rows[pick(col[ok])])
+            out.append(float(col[best]))
+            src.append(best)
+        else:
+            out.append(grid[k])
+            src.append(-1)
+    return (out[0], out[1], out[2], out[3]), np.array(src, dtype=np.int64)
+
+
+def splay_in(face: Array, reveals: Array, adopted: NDArray[np.bool_]) -> float:
+    """How far (m) a face's hole stands outside the opening through the wall: the
+    least of its jambs' distances outside the reveals' (``face``, ``reveals``: jambs,
+    sill and head; ``adopted``: which of the reveals' the opening took), NaN where no
+    jamb of both is measured.
+
+    A splayed reveal widens the hole of the face it runs to on every side: its jambs,
+    which the straight reveals put back (:func:`~pyheracles.walls.reveals.reveal_edges`),
+    and its sill and head, which they seldom see (a sill's straight part faces up, a
+    soffit behind a deep splay is out of sight from below)."""
+    d = np.array([reveals[0] - face[0], face[1] - reveals[1]])
+    ok = np.isfinite(d) & adopted[:2]
+    return float(d[ok].min()) if ok.any() else float("nan")
 
 
 def isolated_out(uz: Array, c: float, factor: float = 3.0) -> Array:

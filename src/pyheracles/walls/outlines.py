@@ -6,8 +6,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, Opening, WallParams
-from pyheracles.walls.openings import face_spacing, merge_lights, refine_edges
-from pyheracles.walls.reveals import fill_edges, reveal_edges
+from pyheracles.walls.openings import (
+    face_edge_table,
+    face_spacing,
+    merge_lights,
+    pick_edges,
+    splay_in,
+)
+from pyheracles.walls.reveals import RevealParams, fill_edges, reveal_edges
 
 __all__ = [
     "dense_cells",
@@ -16,6 +22,7 @@ __all__ = [
     "occupancy",
     "simplify_ring",
     "slim_runs",
+    "splayed_in",
     "wall_outline",
 ]
 
@@ -180,8 +187,9 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                      lo[1] + (sl[1].start + full.max() + 1) * c)  # fmt: skip
             local = _edge_points(ij, on_plane, sl, region)
             grid = (u0, u1, z0, z1)
-            u0, u1, z0, z1 = refine_edges(w_uz[local], face_of[local], u0, u1, z0, z1, c,
-                                          at_foot, jambs)  # fmt: skip
+            table = face_edge_table(w_uz[local], face_of[local], u0, u1, z0, z1, c, at_foot,
+                                    jambs)  # fmt: skip
+            (u0, u1, z0, z1), src = pick_edges(*table, grid, c)
             if lining is not None:  # the reveals between the faces (a door's too: its
                 # leaf, seen on both its faces, is left out with the glass; church draws
                 # 3 and 13: stray returns on a sparse face put door jambs 4-7 cm inward)
@@ -198,13 +206,19 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 # soffit stands
                 sp = min(2 * c, max(face_spacing(w_uz[local][face_of[local] == f])
                                     for f in np.unique(face_of[local])))  # fmt: skip
-                u0 = u0 if np.isnan(found[0]) or u0 - found[0] > sp else found[0]
-                u1 = u1 if np.isnan(found[1]) or found[1] - u1 > sp else found[1]
-                z1 = z1 if np.isnan(found[3]) else found[3]
-                if not on_floor:  # a splayed face's hole, the other face's not measured
-                    # (a clerestory's outer face on an aisle's roof, open to its foot
-                    # here and sparse; church draws 12 and 15: sills 0.2-0.3 m low,
-                    # 0.1-0.4 m wide): the glass, in from every side by one splay
+                took = np.array([np.isfinite(found[0]) and u0 - found[0] <= sp,
+                                 np.isfinite(found[1]) and found[1] - u1 <= sp, False,
+                                 np.isfinite(found[3])])  # fmt: skip
+                u0 = found[0] if took[0] else u0
+                u1 = found[1] if took[1] else u1
+                z1 = found[3] if took[3] else z1
+                if not on_floor:  # the edges the reveals did not see, of a splayed face
+                    u0, u1, z0, z1 = splayed_in((u0, u1, z0, z1), src, *table,
+                                                np.asarray(found), took, c)  # fmt: skip
+                    # a splayed face's hole, the other face's not measured (a
+                    # clerestory's outer face on an aisle's roof, open to its foot here
+                    # and sparse; church draws 12 and 15: sills 0.2-0.3 m low, 0.1-0.4 m
+                    # wide): the glass, in from every side by one splay
                     fill = fill_edges(uz_all[box], depth[box], *grid)  # type: ignore[index]
                     u0, u1, z0, z1 = _splay_to_fill(fill, grid, (u0, u1, z0, z1), c)
             if on_floor:  # a door: the opening through the wall starts at the highest
@@ -272,6 +286,39 @@ def slim_runs(holes: NDArray[np.bool_], n: int, foot: NDArray[np.int64]) -> NDAr
     np.add.at(cum, (cols[drop], starts[drop]), 1)
     np.add.at(cum, (cols[drop], ends[drop]), -1)
     return holes & ~(np.cumsum(cum, axis=1)[:, :-1] > 0)
+
+
+def splayed_in(edges: tuple[float, float, float, float], src: NDArray[np.int64],
+               faces: Array, spacing: Array, reveals: Array, took: NDArray[np.bool_],
+               c: float, p: RevealParams | None = None,
+               ) -> tuple[float, float, float, float]:  # fmt: skip
+    """A window's ``edges`` ``(u0, u1, z0, z1)``, each one set by a face (``src``: its
+    row of ``faces``, the faces' own edges, and of their point ``spacing``; -1: the
+    grid's) and not by the reveals (``reveals``; ``took``: the edges taken from them)
+    moved into the opening by that face's splay
+    (:func:`~pyheracles.walls.openings.splay_in`: how far its jambs stand outside the
+    reveals'), when more than half a cell ``c`` and the face's spacing, and at most
+    ``inward_m``: a sparse face's jamb is read between its points, up to its spacing
+    off either way, and its other edges are not off by as much (a face 30 cm between
+    points put a jamb 10 cm inside the opening).
+
+    A splayed face's hole is the opening grown by the splay on every side.  Its sill
+    is the opening's where the other face has no points under it (a clerestory's
+    outer face behind an aisle's roof) or too few to measure it (sparse), and the
+    reveals never measure a sill (its straight part faces up): church draws 14 and 15,
+    sills 5-28 cm low by the inner face's splay while the reveals put the jambs back
+    (draw 14, round windows in a 1.09 m wall: inner face 6 cm out on every side, outer
+    face 15-30 cm between points); a jamb or head the reveals did not see likewise.
+    """
+    p = p or RevealParams()
+    out = list(edges)
+    for k, f in enumerate(src):
+        if took[k] or f < 0:
+            continue
+        s = splay_in(faces[f], reveals, took)
+        if np.isfinite(s) and max(0.5 * c, spacing[f]) < s <= p.inward_m:
+            out[k] += s if k in (0, 2) else -s
+    return out[0], out[1], out[2], out[3]
 
 
 def _splay_to_fill(fill: tuple[float, float, float, float], hole: tuple[float, ...],
