@@ -134,12 +134,13 @@ def test_a_crown_denser_than_the_roof_under_it_is_found(monkeypatch) -> None:
 def test_crowns_over_roofs_of_draw_18_stay_out(monkeypatch) -> None:
     """Draw 18 (1.8 points/m^2): crowns denser than the roofs under them (B05, B20);
     with the median of the neighbours alone as the surface, 295 tree points went into
-    objects; with the slopes, about 250."""
+    objects; with the slopes, about 250 (283 without them since an inside point is
+    measured against the inside points alone)."""
     taken, f1 = _run(18)
     assert taken <= 265 and f1["building/B05"] > 0.78
     monkeypatch.setattr(crowns, "CROWN_SLOPE", 1e6)
     taken_median, _ = _run(18)
-    assert taken_median > 285
+    assert taken_median > taken + 25
 
 
 def _roof_and_clusters() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -22,6 +23,7 @@ __all__ = [
     "cluster",
     "floating_clusters",
     "hull",
+    "level_heights",
     "local_top",
     "object_points",
     "porous_points",
@@ -129,6 +131,7 @@ def object_points(
     params: ComplexParams,
     porous: NDArray[np.bool_] | None = None,
     solid: NDArray[np.bool_] | None = None,
+    terrain: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask over ``cand`` of the points that make the polygon's object.
 
@@ -147,6 +150,9 @@ def object_points(
     candidate, the solid points that are not porous make the core instead.  Where
     fewer than :data:`EDGE_SHARE` of the object's points are smooth (a thin tower is
     all edges), the scattered points joined raise its top once for the solid ones.
+    ``terrain`` gives the terrain height under XY positions (see
+    :func:`level_heights`): the ring's height limit is then measured over it where the
+    object is the more level so.
     """
     keep = np.zeros(len(cand), dtype=bool)
     cand_in = cand_dist == 0.0
@@ -180,9 +186,16 @@ def object_points(
         # outside the polygon, nothing of the feature rises above its top inside it
         # (eaves and facades stand lower): there, it is the crown of a tree beside it.
         # The polygon's top, not the one beside the point: the inside points of a wall
-        # digitised off its axis are its lower face (complex draws 24, 26)
-        top_in = float(np.percentile(xyz[cand[keep & cand_in], 2], 99))
-        keep &= cand_in | (xyz[cand, 2] <= top_in + params.outside_above_top_m)
+        # digitised off its axis are its lower face (complex draws 24, 26).  Heights over
+        # the terrain where the object is the more level so: the upper end of a wall
+        # climbing a slope stood over the top of its points inside the polygon, lower
+        # down the slope (complex draw 5, W05)
+        kept = np.flatnonzero(keep)
+        inner = cand_in[kept]
+        if not inner.all():
+            z = level_heights(xyz[cand[kept]], terrain, inner)
+            top_in = float(np.percentile(z[inner], 99))
+            keep[kept[~inner & (z > top_in + params.outside_above_top_m)]] = False
     loose = np.flatnonzero(scattered)
     if not keep.any() or len(loose) == 0:
         return keep
@@ -230,6 +243,29 @@ def object_points(
         )
         _join_scattered(xyz, cand, keep, out[eave], cand_in, solid, porous, reach, params)
     return keep
+
+
+def level_heights(
+    xyz: NDArray[np.float64],
+    terrain: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None,
+    part: NDArray[np.bool_],
+) -> NDArray[np.float64]:
+    """Heights of ``xyz``: their Z or their heights over the terrain, whichever the object's
+    ``part`` (a mask over ``xyz``) is the more level in.
+
+    A wall climbing a slope is level over the terrain (its top follows the ground), a roof
+    over sloping ground in Z.  Level: the smaller spread between the 10th and 90th
+    percentiles.  ``terrain`` gives the terrain height under XY positions (NaN where
+    unknown); ``None`` or NaN anywhere: Z.
+    """
+    z = xyz[:, 2]
+    if terrain is None or not part.any():
+        return z
+    h = z - terrain(xyz[:, :2])
+    if not np.isfinite(h).all():
+        return z
+    spread = lambda v: float(np.subtract(*np.percentile(v, [90, 10])))  # noqa: E731
+    return h if spread(h[part]) < spread(z[part]) else z
 
 
 def _join_scattered(
@@ -325,7 +361,10 @@ def vote_scattered(
     the object below its top.  The vote is dropped for
     the polygon when it would turn more than ``1 - params.scatter_vote_keep`` of
     the smooth points inside the polygon (a sparse survey's roof, whose surface
-    variation means little, a gate's thin towers).
+    variation means little, a gate's thin towers).  Only the neighbours within the
+    clustering distance vote, and a point with none that near keeps its own answer: on
+    a sparse survey the nearest candidates of a lone point of a wall lay 30-50 m off, in
+    a crown (complex draw 5, W03).
 
     Returns
     -------
@@ -338,8 +377,14 @@ def vote_scattered(
         return flipped
     from scipy.spatial import cKDTree
 
-    _, idx = cKDTree(xyz).query(xyz, k=k + 1)
-    vote = scattered[idx[:, 1:]].mean(axis=1) >= params.scatter_vote_share
+    # only the neighbours within the clustering distance vote: on a sparse survey the
+    # nearest candidates of a lone point lie tens of metres off (a crown elsewhere)
+    radius = float(params.cluster_distance_m)  # type: ignore[arg-type]
+    _, idx = cKDTree(xyz).query(xyz, k=k + 1, distance_upper_bound=radius)
+    idx = idx[:, 1:]
+    voters = (idx < len(xyz)).sum(axis=1)
+    hits = np.append(scattered, False)[idx].sum(axis=1)  # idx == len(xyz): none that near
+    vote = (voters > 0) & (hits >= params.scatter_vote_share * voters)
     flipped = vote & ~scattered
     rest = ~scattered & ~flipped
     if flipped.any() and rest.any():

@@ -99,7 +99,10 @@ def crown_pass(
     to the roof.
 
     The surface beside a point is the lower of two heights over its
-    :data:`CROWN_NEIGHBOURS` nearest members in XY (within ``radius_m``): their
+    :data:`CROWN_NEIGHBOURS` nearest members in XY (within ``radius_m``; for a point
+    inside the polygon, those inside it: the ring holds facades, plinths and whatever
+    the buffer caught, a branch, and on a sparse wall up a slope its lower end, complex
+    draw 5; none that near, not raised): their
     median, and the lowest of the slopes rising from those inside the polygon
     (``z_j + CROWN_SLOPE * d_xy``, 45 degrees).  The median alone is the crown's
     own height where a crown denser than the roof under it fills the neighbours
@@ -157,17 +160,24 @@ def crown_pass(
     at = np.flatnonzero(np.isfinite(d))  # only these can have off points around
     if len(at) == 0:
         return flag
-    # stand above the object's points beside them
+    # stand above the object's points beside them: for a point inside the polygon, those
+    # inside it (the ring holds facades, plinths and what the buffer caught, a branch)
     xy_tree = cKDTree(p[:, :2])
     k = min(CROWN_NEIGHBOURS + 1, len(members))
-    dxy, idx = xy_tree.query(p[at, :2], k=k, distance_upper_bound=radius_m)
-    dxy = np.asarray(dxy).reshape(len(at), k)[:, 1:]
-    idx = np.asarray(idx).reshape(len(at), k)[:, 1:]  # the point itself first
+    idx = np.full((len(at), k), len(p))
+    dxy = np.full((len(at), k), np.inf)
+    inner = np.zeros(len(at), dtype=bool) if outside is None else ~outside[at]
+    for rows, bound in (
+        (~inner, np.arange(len(p))),
+        (inner, np.flatnonzero(np.ones(len(p), bool) if outside is None else ~outside)),
+    ):
+        if rows.any() and len(bound):
+            idx[rows], dxy[rows] = beside_points(p[:, :2], at[rows], bound, k, radius_m)
     z = np.sort(np.append(p[:, 2], np.nan)[idx], axis=1)  # idx == len(p): none that near
     n = np.isfinite(z).sum(axis=1)  # NaN sorts last: the median of the first n
     rows = np.arange(len(at))
     lo, hi = np.maximum(n - 1, 0) // 2, n // 2
-    beside = np.where(n > 0, 0.5 * (z[rows, lo] + z[rows, np.minimum(hi, k - 2)]), np.inf)
+    beside = np.where(n > 0, 0.5 * (z[rows, lo] + z[rows, np.minimum(hi, k - 1)]), np.inf)
     z_in = p[:, 2] if outside is None else np.where(outside, np.inf, p[:, 2])
     slope = np.append(z_in, np.inf)[idx] + CROWN_SLOPE * np.where(np.isfinite(dxy), dxy, 0.0)
     slope = slope.min(axis=1)
@@ -187,3 +197,33 @@ def crown_pass(
         n_mem = int((((around - p[i]) ** 2).sum(axis=1) <= radius_m**2).sum()) - 1  # not itself
         flag[i] = n_off > 0 and n_off >= share * (n_off + n_mem)
     return flag
+
+
+def beside_points(
+    xy: NDArray[np.float64],
+    at: NDArray[np.int64],
+    bound: NDArray[np.int64],
+    k: int,
+    radius_m: float,
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The ``k - 1`` points of ``bound`` nearest each point ``at`` in XY, itself excluded.
+
+    Returns their indices into ``xy`` (``len(xy)``: none within ``radius_m``) and their
+    XY distances (inf: none), ``(len(at), k)`` each (one column stays empty).
+    """
+    from scipy.spatial import cKDTree
+
+    kk = min(k, len(bound))
+    dxy, nb = cKDTree(xy[bound]).query(xy[at], k=kk, distance_upper_bound=radius_m)
+    dxy = np.asarray(dxy, dtype=np.float64).reshape(len(at), kk)
+    nb = np.asarray(nb).reshape(len(at), kk)
+    idx = np.where(nb < len(bound), bound[np.minimum(nb, len(bound) - 1)], len(xy))
+    # the point itself is not beside it; the others, k - 1 at most
+    gone = idx == at[:, None]
+    gone[:, -1] |= ~gone.any(axis=1)
+    idx = np.where(gone, len(xy), idx)
+    dxy = np.where(gone, np.inf, dxy)
+    if kk < k:
+        idx = np.pad(idx, ((0, 0), (0, k - kk)), constant_values=len(xy))
+        dxy = np.pad(dxy, ((0, 0), (0, k - kk)), constant_values=np.inf)
+    return idx, dxy

@@ -147,6 +147,7 @@ def _segment_layer(
         keep = object_points(
             xyz, cand, cand_dist, scattered[sl], rp, None if porous is None else porous[sl],
             solid=None if site.pass_through is None else ~site.pass_through[cand],
+            terrain=site.terrain if site.ground.any() else None,
         )
         if rp.crown_rise_m is not None and keep.sum() >= 3:
             crown = _crowns(site, cand[keep], cand_dist[keep] > 0.0, buffered[k], rp)
