@@ -108,8 +108,12 @@ def test_pieces_apart_by_more_than_their_length_or_of_two_sections_stay_apart():
     # short pieces far apart: two members on one line, not a shadow
     a, b = _box(0.0, 1.0, 0.12, 0.2), _box(3.5, 1.0, 0.12, 0.2)
     assert len(join_pieces([a, b], cos, 1.0, 3.0)[0]) == 2
-    # a piece seen on one face: its section is not located
-    a, b = _box(0.0, 5.0, 0.12, 0.2), _box(7.4, 3.2, 0.12, 0.2, faces=1)
+    # a piece seen on one face, its depth not measured: its section is not known
+    a = _box(0.0, 5.0, 0.12, 0.2)
+    b = replace(_box(7.4, 3.2, 0.12, 0.2, faces=1), height_measured=False)
+    assert len(join_pieces([a, b], cos, 1.0, 3.0)[0]) == 2
+    # two pieces seen on one face each: no located section on either side
+    a, b = _box(0.0, 5.0, 0.12, 0.2, faces=1), _box(7.4, 3.2, 0.12, 0.2, faces=1)
     assert len(join_pieces([a, b], cos, 1.0, 3.0)[0]) == 2
 
 
