@@ -13,7 +13,7 @@ from pyheracles.walls.openings import (
     pick_edges,
     splay_in,
 )
-from pyheracles.walls.reveals import RevealParams, fill_edges, reveal_edges
+from pyheracles.walls.reveals import RevealParams, fill_edges, reveal_edges, soffit_head
 
 __all__ = [
     "dense_cells",
@@ -96,7 +96,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                  uz_all: Array,
                  near: NDArray[np.bool_], behind: NDArray[np.bool_], front: NDArray[np.bool_],
                  p: WallParams, side: NDArray[np.int64] | None = None,
-                 depth: Array | None = None) -> tuple[Array, list[Opening], tuple[float, float],
+                 depth: Array | None = None, between: tuple[Array, Array] | None = None,
+                 ) -> tuple[Array, list[Opening], tuple[float, float],
                             tuple[float, float]]:  # fmt: skip
     """Envelope and openings of one wall from its face points ``w_uz`` (``(u, z)``).
 
@@ -109,7 +110,10 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     lies (+1/-1; the floor inside and the ground outside under a door); ``depth``:
     their distance across the wall from its mid-plane (m): where both faces are seen,
     the points between them line the openings, and a window's jambs and head are put
-    where its straight reveals stand (:func:`~pyheracles.walls.reveals.reveal_edges`).
+    where its straight reveals stand (:func:`~pyheracles.walls.reveals.reveal_edges`);
+    ``between``: the ``(u, z)`` and depth of every point between the two faces (full
+    resolution), for a head nothing else measures
+    (:func:`~pyheracles.walls.reveals.soffit_head`).
     """
     from scipy import ndimage
 
@@ -212,6 +216,10 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 u0 = found[0] if took[0] else u0
                 u1 = found[1] if took[1] else u1
                 z1 = found[3] if took[3] else z1
+                if not took[3] and src[3] < 0 and between is not None:  # the grid's head
+                    # (a pointed apex closed): the soffit's top at full resolution
+                    apex = soffit_head(*between, u0, u1, z1, c)
+                    z1 = apex if np.isfinite(apex) and apex > z1 else z1
                 if not on_floor:  # the edges the reveals did not see, of a splayed face
                     u0, u1, z0, z1 = splayed_in((u0, u1, z0, z1), src, *table,
                                                 np.asarray(found), took, c)  # fmt: skip

@@ -17,7 +17,7 @@ import numpy as np
 
 from pyheracles.walls.model import Array
 
-__all__ = ["RevealParams", "fill_edges", "pane_mask", "reveal_edges", "reveal_peak"]
+__all__ = ["RevealParams", "fill_edges", "pane_mask", "reveal_edges", "reveal_peak", "soffit_head"]
 
 
 @dataclass(frozen=True)
@@ -217,3 +217,33 @@ def fill_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: flo
         return nan, nan, nan, nan
     us, zs = np.sort(fill[:, 0]), np.sort(fill[:, 1])
     return float(us[1]), float(us[-2]), float(zs[1]), float(zs[-2])
+
+
+def soffit_head(uz: Array, depth: Array, u0: float, u1: float, z1: float, c: float,
+                bin_m: float = 0.05, min_points: int = 3) -> float:  # fmt: skip
+    """Head of an opening ``u0``-``u1`` whose grid head is ``z1`` (cell ``c``) from the
+    points between the wall's faces at full resolution (``uz`` on the wall plane,
+    ``depth`` across it): the least over the depths (``bin_m`` bins holding at least
+    ``min_points``) of their highest point over the opening's centre (a tenth of its
+    width, at least a cell), up to four cells above ``z1``; NaN when no depth holds
+    enough.
+
+    Nothing stands between the faces above the head but the wall: the soffit, the glass
+    and its cames reach up to the head and no higher, and a splayed soffit rises from the
+    narrowest section towards its face (the least over the depths is the narrowest).  The
+    apex of a pointed head is a narrow wedge that the grid closes, 6-13 cm of it, and a
+    sparse face has no point within reach of it (church draws 17 and 18: heads short with
+    the soffit seen up to the apex, but thinned to one point per 6 cm in the detection
+    sample that the reveals are read from).
+    """
+    uc, half = 0.5 * (u0 + u1), max(0.05 * (u1 - u0), c)
+    sel = (np.abs(uz[:, 0] - uc) < half) & (uz[:, 1] > z1 - c) & (uz[:, 1] <= z1 + 4 * c)
+    if np.count_nonzero(sel) < min_points:
+        return float("nan")
+    k = np.floor(depth[sel] / bin_m).astype(np.int64)
+    k -= k.min()
+    n = np.bincount(k)
+    top = np.full(len(n), -np.inf)
+    np.maximum.at(top, k, uz[sel, 1])
+    ok = n >= min_points
+    return float(top[ok].min()) if ok.any() else float("nan")

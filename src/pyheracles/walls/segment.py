@@ -129,10 +129,16 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
             front = (-s * depth > p.distance_m) & (-s * depth < 1.5)
             if w["side"] == 0:  # unknown side: anything through the hole counts
                 behind = behind | front
+        between = None
+        if len(w["faces"]) == 2:  # every point between the faces (full resolution)
+            qf = pts - w["origin"]
+            df = qf @ w["normal"]
+            inner = np.abs(df) < 0.5 * w["thickness"] - p.distance_m
+            between = (np.c_[qf[inner] @ w["u_axis"], qf[inner, 2]], df[inner])
         near = np.abs(depth) < 1.5 + (0 if np.isnan(w["thickness"]) else w["thickness"])
         side = np.sign(depth).astype(np.int64)  # of the wall's plane: the floor, the ground
         outline, openings, ur, zr = wall_outline(
-            w_uz, face_of, on_plane, uz_all, near, behind, front, p, side, depth
+            w_uz, face_of, on_plane, uz_all, near, behind, front, p, side, depth, between
         )
         w.update(outline=outline, openings=openings, u_range=ur, z_range=zr, idx=idx,
                  ends=list(ur))  # fmt: skip
