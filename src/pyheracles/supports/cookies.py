@@ -30,6 +30,8 @@ from pyheracles.supports.profile import (
     attached_share,
     band_reach,
     carried_surface,
+    end_pieces,
+    head_cut,
     overhead_cover,
     surface_tolerance,
     wall_beside,
@@ -229,6 +231,20 @@ def extract_support(
         ctol = params.ceiling_tolerance_m or surface_tolerance(
             z[carried & ring], top_z, cell, bounds
         )
+    # what it carries may stand over its own plan below its spanning layer (a vault
+    # springing from its abacus): the top is where points first lie well inside its
+    # outline (only under a carried surface: the fracture of a broken column, seen from
+    # above, lies inside its outline too)
+    layer = max(0.05, 3.0 * sc.spacing)
+    n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * sc.spacing)))
+    if np.isfinite(top_z):
+        inner = free[~ring[free]]
+        z_head = head_cut(
+            rho[inner], ang[inner], z[inner], h_sec + sc.thickness / 2 + layer, top_z,
+            layer, min(n_sec, 72), sc.tol,
+        )  # fmt: skip
+        if z_head < top_z - ctol:
+            top_z, ctol = z_head, 0.0
     if front is not None:
         # an engaged column stands in a wall: the face must rise with it (a fence rail or
         # a bench touching a one-sided scanned column is no wall)
@@ -242,12 +258,10 @@ def extract_support(
         return None
     # clutter: only what is within the reach of the support's own profile in its height
     # band (a fence rail or a chair touching a column fills a few sectors of a band)
-    n_sec = max(8, int(2 * np.pi * max(float(np.max(sh["half"])), 0.05) / (3 * sc.spacing)))
-    layer = max(0.05, 3.0 * sc.spacing)
     r_in, a_in, z_in = rho[inside], ang[inside], cpts[:, 2]
     radius = float(sh["radius"]) if sh["class"] != "pier" else 0.0
     keep = r_in <= band_reach(r_in, a_in, z_in, layer, min(n_sec, 72), radius, sc.tol)
-    cidx, crho, cpts = cidx[keep], r_in[keep], cpts[keep]
+    cidx, crho, cpts, cang = cidx[keep], r_in[keep], cpts[keep], a_in[keep]
     if len(cidx) < params.min_points:
         return None
     # final clustering: keep what is connected to the section island, at the support's
@@ -260,7 +274,9 @@ def extract_support(
     good = np.unique(lab[in_sec & (lab > 0)])
     if len(good) == 0:
         return None
-    conn = np.isin(lab, good)
+    # and the pieces cut off at its ends by faces not seen (a plinth's top, an abacus's
+    # underside)
+    conn = end_pieces(cpts[:, 2], crho, cang, lab, np.isin(lab, good), cell, min(n_sec, 72))
     cidx, crho, cpts = cidx[conn], crho[conn], cpts[conn]
     height = float(np.ptp(cpts[:, 2]))
     if sh["class"] in ("pier", "column"):

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from pyheracles.geometry.groups import group_medians
 from pyheracles.supports.core import Array, Scales
 
 #: A carried surface must cover at least this many 10-degree sectors of the ring (a
@@ -341,3 +342,186 @@ def overhead_cover(z: Array, ang: Array, top: float) -> float:
         return 0.0
     sec = angular_sector(ang[above], OVERHEAD_SECTORS)
     return len(np.unique(sec)) / OVERHEAD_SECTORS
+
+
+#: Share of a piece's points on its faces (within a cell of the median offset of their
+#: sector) for it to be made of upright faces.
+UPRIGHT_SHARE = 0.8
+#: A piece of a support cut off at one of its ends (a plinth, an abacus) covers at least
+#: this share of the angular sectors its neighbouring end covers.
+END_SECTOR_SHARE = 0.5
+
+
+def end_pieces(
+    z: Array,
+    rho: Array,
+    ang: Array,
+    lab: NDArray[np.int32],
+    kept: NDArray[np.bool_],
+    cell: float,
+    sectors: int,
+) -> NDArray[np.bool_]:
+    """Pieces of a support cut off from it at its foot or its head by a face the scanners
+    did not see: the top of a plinth, the underside of an abacus (``kept`` grown by them).
+
+    ``lab``: the support's points clustered in 3D (0: none), ``kept``: the points of the
+    pieces joined to its section; ``z``, ``rho``, ``ang``: heights, offsets from the
+    section shape and angles about it.  The pieces that go on above the kept head from
+    within two layers of ``cell`` of it (or below the kept foot) and are made of
+    upright faces (:func:`upright_pieces`) are
+    added when together they stand round the support: their points fill at least
+    :data:`END_SECTOR_SHARE` of the angular sectors the kept points fill in the two
+    layers at that end.  A square plinth 2.5 r wide stands out of its shaft by more than
+    the clustering's gap: without its top face its sides were clusters of their own and
+    left out (supports draw 23: plinths and abaci of 1 m columns, 12-17 % of their
+    points).  Repeated, so that a base and the plinth under it are both added.
+    """
+    out = kept.copy()
+    n_lab = int(lab.max(initial=0)) + 1
+    if not out.any() or n_lab == 1:
+        return out
+    sec = angular_sector(ang, sectors)
+    z_lo = np.full(n_lab, np.inf)
+    z_hi = np.full(n_lab, -np.inf)
+    np.minimum.at(z_lo, lab, z)
+    np.maximum.at(z_hi, lab, z)
+    cand = np.zeros(n_lab, dtype=bool)
+    cand[lab[~out]] = True
+    cand[0] = False
+    cand &= upright_pieces(rho, sec, lab, n_lab, sectors, cell)
+    ids = np.flatnonzero(cand)
+    while len(ids):
+        lo, hi = float(z[out].min()), float(z[out].max())
+        up = (np.abs(z_lo[ids] - hi) <= 2 * cell) & (z_hi[ids] > hi)  # from the head up
+        down = (np.abs(z_hi[ids] - lo) <= 2 * cell) & (z_lo[ids] < lo)  # from the foot down
+        ends = ((up, out & (z >= hi - 2 * cell)), (down, out & (z <= lo + 2 * cell)))
+        added = np.zeros(len(ids), dtype=bool)
+        for near, end in ends:
+            if not near.any():
+                continue
+            theirs = np.isin(lab, ids[near])
+            mine = np.unique(sec[end])
+            if len(np.intersect1d(mine, sec[theirs])) >= END_SECTOR_SHARE * len(mine):
+                out |= theirs
+                added |= near
+        if not added.any():
+            break
+        ids = ids[~added]
+    return out
+
+
+def upright_pieces(
+    rho: Array,
+    sec: NDArray[np.intp],
+    lab: NDArray[np.int32],
+    n_lab: int,
+    sectors: int,
+    cell: float,
+) -> NDArray[np.bool_]:
+    """Per label of ``lab`` (0 .. n_lab - 1), whether its points are upright faces about a
+    support: at least :data:`UPRIGHT_SHARE` of them lie within ``cell`` of the median
+    offset ``rho`` of the label's points in their angular sector ``sec`` (a floor or a
+    ceiling spreads from the support out to the cookie's edge; the noisy fringe of a
+    floor touching a plinth's foot leaves most of its face)."""
+    key = lab.astype(np.int64) * sectors + sec
+    med = group_medians(rho, key, n_lab * sectors)
+    on = np.abs(rho - med[key]) <= cell
+    n = np.bincount(lab, minlength=n_lab)
+    return np.bincount(lab, weights=on, minlength=n_lab) >= UPRIGHT_SHARE * np.maximum(n, 1)
+
+
+#: A layer is narrower than the support below it when at least this share of the angular
+#: sectors it shares with the layers below (and at least ``MIN_NARROW_SECTORS``) hold
+#: points well inside the support's outline there.
+NARROW_SHARE = 0.25
+MIN_NARROW_SECTORS = 3
+#: ... unless its points lie on that outline (within ``tol``) in at least this share of
+#: those sectors: the support goes on there (an outlier cluster inside a shaft).
+ON_OUTLINE_SHARE = 0.5
+#: Layers below a layer whose outline is the support's there (the outer envelope of
+#: their innermost offsets per sector).
+OUTLINE_LAYERS = 4
+#: A sector's outline is carried up through layers without its points for at most this
+#: height, metres.
+OUTLINE_STALE_M = 1.0
+
+
+def head_cut(
+    rho: Array,
+    ang: Array,
+    z: Array,
+    h_from: float,
+    h_to: float,
+    layer: float,
+    sectors: int,
+    tol: float,
+) -> float:
+    """Height at which what stands on a support begins, read from inside its outline
+    (metres; inf when nothing does).
+
+    A support's own surface in an angular sector about its section shape goes up at
+    the offset ``rho`` it has in the layers below (a taper or a lean moves it by
+    millimetres per layer; a capital widens it): nothing of the support lies more than
+    ``tol`` inside that outline.  Above its top the scanners see what it carries
+    from below, over the support's own plan: the springing of a groin vault rising from
+    its abacus, the side faces of a girder across it, the underside of a beam, are
+    points well inside the outline of the layers below in many sectors at once, and
+    over the support's section (the mixed pixels under an abacus 1.2 m wide lie inside
+    the abacus's outline, outside the shaft: supports draw 11).  From
+    ``h_from`` (above the section) up, in layers of ``layer``: a layer narrows when its
+    innermost offsets lie more than ``tol`` inside the section shape and inside the
+    outer envelope of those of
+    the :data:`OUTLINE_LAYERS` layers below (a sector's last layers with points, up to
+    :data:`OUTLINE_STALE_M` below: the capital's shadow leaves layers empty) in at
+    least :data:`NARROW_SHARE` of the sectors both hold (and :data:`MIN_NARROW_SECTORS`),
+    while its points lie on that outline in fewer than :data:`ON_OUTLINE_SHARE` of them
+    (a cluster of outliers inside a shaft, supports draw 13, leaves the shaft's surface
+    all round it); the first of two narrowing layers in a row marks the top, and the
+    layer under it, where the carried surface's underside lies, is left out too, if
+    more than :data:`OUTLINE_LAYERS` of the ``2 x OUTLINE_LAYERS`` layers from there up
+    narrow (clutter that widened the outline below, a scaffold board round a shaft,
+    makes the shaft above it narrower than the outline for ``OUTLINE_LAYERS`` layers
+    at most: supports draw 22).  Only points below ``h_to`` (the underside of the
+    spanning surface it carries) count.  The
+    spanning test of :func:`carried_surface` did not see these: a vault funnel rises
+    0.8-1.8 m within a column's cookie before it reaches the ring around it, and a
+    girder's faces over a column look like the column going on up (supports draws 15,
+    39: vault points 30 % of a column; draw 13: girders and joists over 20 columns).
+    """
+    sel = (z >= h_from) & (z < h_to)
+    if np.count_nonzero(sel) < 10:
+        return np.inf
+    li = np.floor((z[sel] - h_from) / layer).astype(np.intp)
+    nl = int(li.max()) + 1
+    if nl < OUTLINE_LAYERS + 2:
+        return np.inf
+    rmin = np.full((nl, sectors), np.inf)
+    np.minimum.at(rmin, (li, angular_sector(ang[sel], sectors)), rho[sel])
+    # per sector, the offsets of its last layers with points (the shadow of a capital
+    # leaves layers empty under what stands on it), at most OUTLINE_STALE_M below
+    seen = np.isfinite(rmin)
+    rows = np.where(seen, np.arange(nl)[:, None], -1)
+    last = np.maximum.accumulate(rows, axis=0)
+    stale = np.arange(nl)[:, None] - last > max(OUTLINE_LAYERS, OUTLINE_STALE_M / layer)
+    filled = np.where((last >= 0) & ~stale, rmin[np.maximum(last, 0), np.arange(sectors)], -np.inf)
+    ref = np.full((nl, sectors), -np.inf)
+    for k in range(1, OUTLINE_LAYERS + 1):  # envelope of the layers below each layer
+        ref[k:] = np.maximum(ref[k:], filled[:-k])
+    both = np.isfinite(rmin) & np.isfinite(ref)
+    narrow = both & (rmin < ref - tol) & (rmin < -tol)  # and inside the section shape
+    on = both & (np.abs(rmin - ref) <= tol)  # the support's surface going on
+    n_both = both.sum(axis=1)
+    n_narrow = narrow.sum(axis=1)
+    flag = (n_narrow >= MIN_NARROW_SECTORS) & (n_narrow >= NARROW_SHARE * n_both)
+    flag &= on.sum(axis=1) < ON_OUTLINE_SHARE * n_both
+    flag[:OUTLINE_LAYERS] = False  # the outline is measured first
+    run = flag[:-1] & flag[1:]
+    if not run.any():
+        return np.inf
+    k = int(np.argmax(run))
+    # and the narrowing lasts longer than the outline's memory: a scaffold board round a
+    # shaft widens its outline for a layer or two, and the shaft above it is narrower
+    # than that outline for OUTLINE_LAYERS layers at most
+    if np.count_nonzero(flag[k : k + 2 * OUTLINE_LAYERS]) <= OUTLINE_LAYERS:
+        return np.inf
+    return h_from + (k - 1) * layer
