@@ -282,6 +282,8 @@ def pier_box(pts: Array, sh: dict, tol: float) -> BoxFit | FailedFit:
 #: A pier's box is fitted again to the prism of its shaft band when more than this
 #: share of the prism's points lie outside the box of the faces its section saw.
 PRISM_OUTSIDE_SHARE = 0.05
+#: ... to the prism of the shaft band less this share of its height at either end.
+PRISM_END_SHARE = 0.1
 
 
 def prism_points(pts: Array, cell: float, *, layers: int = 8, min_layers: int = 5) -> Array:
@@ -476,7 +478,12 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
             lo = row["base_top_m"] if np.isfinite(row["base_top_m"]) else 0.0
             hi = row["capital_bottom_m"] if np.isfinite(row["capital_bottom_m"]) else np.inf
             h = pts[:, 2] - row["z_min"]
-            band = pts[(h > lo) & (h < hi)]
+            # the middle of the shaft band: a plinth or a capital the bands missed (a
+            # plinth 3 cm wider than the faces) fills the cells of the faces beside it
+            # (supports draw 8's pier 18: its box 2 cm outside both seen faces)
+            top = min(hi, float(h.max()))
+            inset = PRISM_END_SHARE * max(top - lo, 0.0)
+            band = pts[(h > lo + inset) & (h < top - inset)]
             prism = band[prism_points(band, max(0.02, 2.0 * tol))]
             if len(prism) >= 20 and outside_share(prism, box, 2.0 * tol) > PRISM_OUTSIDE_SHARE:
                 wider = prism_box(prism, sh, tol)
