@@ -5,27 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.synthetic.scanner import TLSStation, scan
-from pyheracles.synthetic.scene import Scene
+from pyheracles.synthetic.scanner import TLSStation
 from pyheracles.walls import segment_walls
 from pyheracles.walls.reveals import RevealParams, reveal_peak
+from splayed_windows import QUIET
+from splayed_windows import splayed_window as scene_of_splayed_window
 
-QUIET = {"noise_m": 0.002, "noise_per_m": 0.0, "detection": 1e-9, "mixed_pixel_share": 0.0}
 L, H, T = 8.0, 4.5, 0.5  # wall length, height, thickness (m)
 U0, U1, Z0, Z1 = 3.0, 4.2, 1.2, 3.0  # the opening through the wall
 SPLAY, PANE = 0.2, 0.25  # the inner reveal widens by SPLAY from depth PANE to the inner face
-
-
-def _face(s: Scene, y: float, a: float, b: float, lo: float, hi: float) -> None:
-    """A wall face at ``y`` with the hole ``a``-``b`` x ``lo``-``hi``."""
-    for u_0, u_1, z_0, z_1 in ((0, a, 0, H), (b, L, 0, H), (a, b, 0, lo), (a, b, hi, H)):
-        s.add_quad([[u_0, y, z_0], [u_1, y, z_0], [u_1, y, z_1], [u_0, y, z_1]], instance=1,
-                   class_name="wall", part="face")  # fmt: skip
-
-
-def _ring(y: float, grow: float) -> np.ndarray:
-    return np.array([[U0 - grow, y, Z0 - grow], [U1 + grow, y, Z0 - grow],
-                     [U1 + grow, y, Z1 + grow], [U0 - grow, y, Z1 + grow]])  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -36,19 +24,11 @@ def splayed_window() -> np.ndarray:
     from 25 m at 0.5 deg (22 cm between scan lines, as a high window's outer face seen
     from the ground): the faces' holes are the inner face's, 0.2 m wider all round, and
     the outer face's, read between points 22 cm apart."""
-    s = Scene()
-    _face(s, 0.0, U0, U1, Z0, Z1)
-    _face(s, T, U0 - SPLAY, U1 + SPLAY, Z0 - SPLAY, Z1 + SPLAY)
-    a, m, b = _ring(0.0, 0.0), _ring(PANE, 0.0), _ring(T, SPLAY)
-    for p, q in ((a, m), (m, b)):  # the straight reveals, then the splayed ones
-        for k in range(4):
-            s.add_quad([p[k], p[(k + 1) % 4], q[(k + 1) % 4], q[k]], instance=1,
-                       class_name="wall", part="reveal")  # fmt: skip
     stations = [
         TLSStation((3.6, 4.0, 1.6), step_deg=0.2, azimuth_deg=(200, 340), **QUIET),
         TLSStation((5.0, -25.0, 1.6), step_deg=0.5, azimuth_deg=(60, 120), **QUIET),
     ]
-    return scan(s, stations, rng=1).xyz
+    return scene_of_splayed_window(L, H, T, (U0, U1, Z0, Z1), SPLAY, PANE, stations, rng=1)
 
 
 def test_splayed_window_is_the_straight_reveals_section(splayed_window) -> None:

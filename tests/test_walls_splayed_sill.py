@@ -6,27 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.synthetic.scanner import TLSStation, scan
-from pyheracles.synthetic.scene import Scene
+from pyheracles.synthetic.scanner import TLSStation
 from pyheracles.walls import segment_walls
 from pyheracles.walls.outlines import splayed_in
+from splayed_windows import QUIET, splayed_window
 
-QUIET = {"noise_m": 0.002, "noise_per_m": 0.0, "detection": 1e-9, "mixed_pixel_share": 0.0}
 L, H, T = 8.0, 5.0, 0.9  # wall length, height, thickness (m)
 U0, U1, Z0, Z1 = 3.0, 3.8, 2.0, 3.8  # the opening through the wall
 SPLAY, PANE = 0.08, 0.55  # the inner reveal widens by SPLAY from depth PANE to the inner face
-
-
-def _face(s: Scene, y: float, a: float, b: float, lo: float, hi: float) -> None:
-    """A wall face at ``y`` with the hole ``a``-``b`` x ``lo``-``hi``."""
-    for u_0, u_1, z_0, z_1 in ((0, a, 0, H), (b, L, 0, H), (a, b, 0, lo), (a, b, hi, H)):
-        s.add_quad([[u_0, y, z_0], [u_1, y, z_0], [u_1, y, z_1], [u_0, y, z_1]], instance=1,
-                   class_name="wall", part="face")  # fmt: skip
-
-
-def _ring(y: float, grow: float) -> np.ndarray:
-    return np.array([[U0 - grow, y, Z0 - grow], [U1 + grow, y, Z0 - grow],
-                     [U1 + grow, y, Z1 + grow], [U0 - grow, y, Z1 + grow]])  # fmt: skip
 
 
 def _deep_splayed_window() -> np.ndarray:
@@ -35,19 +22,11 @@ def _deep_splayed_window() -> np.ndarray:
     0.55 m deep and splayed by 8 cm from there to the inner face.  The inner face is
     scanned from 5 m, the outer face from 30 m at 0.6 deg (31 cm between scan lines):
     the outer face measures no sill, the inner face's sill is its splayed hole's."""
-    s = Scene()
-    _face(s, 0.0, U0, U1, Z0, Z1)
-    _face(s, T, U0 - SPLAY, U1 + SPLAY, Z0 - SPLAY, Z1 + SPLAY)
-    a, m, b = _ring(0.0, 0.0), _ring(PANE, 0.0), _ring(T, SPLAY)
-    for p, q in ((a, m), (m, b)):  # the straight reveals, then the splayed ones
-        for k in range(4):
-            s.add_quad([p[k], p[(k + 1) % 4], q[(k + 1) % 4], q[k]], instance=1,
-                       class_name="wall", part="reveal")  # fmt: skip
     stations = [
         TLSStation((3.0, 5.0, 1.6), step_deg=0.15, azimuth_deg=(200, 340), **QUIET),
         TLSStation((3.5, -30.0, 1.6), step_deg=0.6, azimuth_deg=(70, 110), **QUIET),
     ]
-    return scan(s, stations, rng=14).xyz
+    return splayed_window(L, H, T, (U0, U1, Z0, Z1), SPLAY, PANE, stations, rng=14)
 
 
 def test_a_splayed_faces_sill_is_moved_in_by_its_splay() -> None:
