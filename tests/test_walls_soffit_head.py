@@ -47,18 +47,12 @@ def test_pointed_heads_of_draw_17() -> None:
     measured the heads, and the grid's stood 6-10 cm under the apexes.  (Window 23,
     0.36 m wide, stays 12 cm short: among its few soffit points over the centre, one
     depth holds only points of the flanks.)"""
-    from church_walls import church_walls
+    from church_walls import church_walls, nearest_opening
 
     r, objs = church_walls(17)
     for inst in (2, 18, 24, 25):
         win = next(o for o in objs if o["class"] == "window" and o["instance"] == inst)
-        centre = np.asarray(win["box_corners_m"]).mean(axis=0)
-        best, dist = None, np.inf
-        for w in r.walls:
-            for o in w.openings:
-                c = w.to_3d([[0.5 * (o.u_min + o.u_max), 0.5 * (o.z_min + o.z_max)]])[0]
-                if np.linalg.norm(c - centre) < dist:
-                    best, dist = o, float(np.linalg.norm(c - centre))
+        best, dist = nearest_opening(r, win)
         assert best is not None and dist < 0.3
         assert best.height_m == pytest.approx(win["height_m"], abs=0.05)
         assert best.width_m == pytest.approx(win["width_m"], abs=0.05)

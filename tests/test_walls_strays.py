@@ -29,18 +29,11 @@ def test_a_stray_return_above_a_sill_is_no_sill() -> None:
     the inner face's plane 11 cm above the sill, in one of the two columns of the
     face's central band (3.7 cm between points), put the face's sill 7 cm high, and
     the window 8.6 cm short (the highest of the faces' sills is the opening's)."""
-    from church_walls import church_walls
+    from church_walls import church_walls, nearest_opening
 
     r, objs = church_walls(5)
     win = next(o for o in objs if o["class"] == "window" and o["instance"] == 12)
-    bc = np.asarray(win["box_corners_m"])
-    centre = bc.mean(axis=0)
-    best, dist = None, np.inf
-    for w in r.walls:
-        for o in w.openings:
-            c = w.to_3d([[0.5 * (o.u_min + o.u_max), 0.5 * (o.z_min + o.z_max)]])[0]
-            if np.linalg.norm(c - centre) < dist:
-                best, dist = o, float(np.linalg.norm(c - centre))
+    best, dist = nearest_opening(r, win)
     assert best is not None and dist < 0.3
     assert best.width_m == pytest.approx(win["width_m"], abs=0.05)
     assert best.height_m == pytest.approx(win["height_m"], abs=0.05)
