@@ -118,3 +118,22 @@ def test_plinth_and_abacus_cut_off_by_unseen_faces_stay_with_the_column() -> Non
         assert np.mean(found.instance[plinth] == k) > 0.9
         assert np.mean(found.instance[abacus] == k) > 0.9
         assert not found.instance[(xyz[:, 2] < 0.005) & (d > 2.0)].any()  # the floor stays
+
+
+@pytest.mark.slow
+def test_pulpit_tub_cut_as_a_pier_is_not_joined_to_its_post() -> None:
+    """Draw 24 of the supports family (a kiosk with pulpits): the pieces cut off at a
+    column's ends are joined to it, not at a pier's (its plinth and impost stand out of
+    it by less than the clustering's gap); joined to the tub of a pulpit cut by the
+    section as a pier, its post and lining made two more false piers of clutter."""
+    from pyheracles.building import segment_building
+    from pyheracles.synthetic.families import simulate
+
+    sim = simulate("supports", 24)
+    res = sim.clouds["cloud"]
+    _, found, _, _ = segment_building(res.xyz)
+    code = {v: k for k, v in sim.scene.class_names.items()}["clutter"]
+    inst = found.instance[~res.outlier]
+    clutter = np.bincount(inst, weights=res.class_id[~res.outlier] == code)
+    share = clutter[1:] / np.maximum(np.bincount(inst)[1:], 1)
+    assert np.count_nonzero(share > 0.5) <= 2  # as before the end pieces (4 with them)

@@ -274,9 +274,12 @@ def extract_support(
     good = np.unique(lab[in_sec & (lab > 0)])
     if len(good) == 0:
         return None
-    # and the pieces cut off at its ends by faces not seen (a plinth's top, an abacus's
-    # underside)
-    conn = end_pieces(cpts[:, 2], crho, cang, lab, np.isin(lab, good), cell, min(n_sec, 72))
+    # and, round a column, the pieces cut off at its ends by faces not seen (a plinth's
+    # top, an abacus's underside; a pier's plinth and impost stand out of it by less than
+    # the gap, and a pulpit's tub cut as a pier is not to be joined to its post: draw 24)
+    conn = np.isin(lab, good)
+    if sh["class"] != "pier":
+        conn = end_pieces(cpts[:, 2], crho, cang, lab, conn, cell, min(n_sec, 72))
     cidx, crho, cpts = cidx[conn], crho[conn], cpts[conn]
     height = float(np.ptp(cpts[:, 2]))
     if sh["class"] in ("pier", "column"):
