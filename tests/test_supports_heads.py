@@ -11,23 +11,7 @@ import pytest
 
 from pyheracles.supports import SupportParams, detect_supports
 from pyheracles.supports.profile import head_cut
-
-
-def grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray:
-    """``(M, 2)`` points every ``step`` metres over a rectangle."""
-    u, v = np.meshgrid(np.arange(u0, u1 + 1e-9, step), np.arange(v0, v1 + 1e-9, step))
-    return np.c_[u.ravel(), v.ravel()]
-
-
-def tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
-    """Points on a vertical cylinder."""
-    n = max(8, int(2 * np.pi * radius / step))
-    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    z = np.arange(z0, z1 + 1e-9, step)
-    tt, zz = np.meshgrid(t, z)
-    return np.c_[
-        centre[0] + radius * np.cos(tt.ravel()), centre[1] + radius * np.sin(tt.ravel()), zz.ravel()
-    ]
+from test_supports_clutter import grid, tube
 
 
 def square_sides(centre, half: float, z0: float, z1: float, step: float) -> np.ndarray:
