@@ -12,7 +12,7 @@ import numpy as np
 
 from pyheracles.complex import ComplexParams, crowns
 from pyheracles.complex.crowns import CROWN_DEPTH_M, crown_pass, crown_points
-from test_complex_foliage import _run
+from test_complex_foliage import run_complex_draw
 
 
 def _roof_and_tree() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -78,20 +78,20 @@ def test_nothing_off_the_polygon_no_crown() -> None:
 def test_crowns_over_roofs_of_draw_21_stay_out() -> None:
     """Draw 21 (0.28 points/m^2): with the rule off, 71 tree points went into objects and
     B05, B23 scored F1 0.84-0.86 (crown twigs 3-5 m over their roofs); with it, 43."""
-    taken, f1 = _run(21)
+    taken, f1 = run_complex_draw(21)
     assert taken <= 50
     assert f1["building/B05"] >= 0.9 and f1["building/B23"] >= 0.9
-    off_taken, off_f1 = _run(21, ComplexParams(crown_rise_m=None))
+    off_taken, off_f1 = run_complex_draw(21, ComplexParams(crown_rise_m=None))
     assert off_taken > 60 and off_f1["building/B05"] < 0.9  # the rule is what keeps them out
 
 
 def test_crown_beside_a_wall_of_draw_3_is_peeled(monkeypatch) -> None:
     """Draw 3 (4.2 points/m^2, clustering distance 1.4 m): a crown over wall W06 reaches
     in farther than one pass (W06 F1 0.86); peeled to a crown's depth, 0.9 or more."""
-    _, f1 = _run(3)
+    _, f1 = run_complex_draw(3)
     assert f1["wall/W06"] >= 0.9
     monkeypatch.setattr(crowns, "CROWN_DEPTH_M", 0.0)  # one pass
-    _, f1_once = _run(3)
+    _, f1_once = run_complex_draw(3)
     assert f1_once["wall/W06"] < 0.9
 
 
@@ -136,10 +136,10 @@ def test_crowns_over_roofs_of_draw_18_stay_out(monkeypatch) -> None:
     with the median of the neighbours alone as the surface, 295 tree points went into
     objects; with the slopes, about 250 (283 without them since an inside point is
     measured against the inside points alone)."""
-    taken, f1 = _run(18)
+    taken, f1 = run_complex_draw(18)
     assert taken <= 265 and f1["building/B05"] > 0.78
     monkeypatch.setattr(crowns, "CROWN_SLOPE", 1e6)
-    taken_median, _ = _run(18)
+    taken_median, _ = run_complex_draw(18)
     assert taken_median > taken + 25
 
 
@@ -183,12 +183,12 @@ def test_a_crown_over_the_gate_of_draw_18_floats(monkeypatch) -> None:
     kept as a cluster near the polygon (G01 F1 0.875); left out, G01 scores 0.9 or more."""
     from pyheracles.complex import clusters
 
-    _, f1 = _run(18)
+    _, f1 = run_complex_draw(18)
     assert f1["gate/G01"] >= 0.9
     monkeypatch.setattr(
         clusters, "floating_clusters", lambda xyz, labels, *a: np.zeros(len(labels), bool)
     )
-    _, f1_kept = _run(18)
+    _, f1_kept = run_complex_draw(18)
     assert f1_kept["gate/G01"] < 0.9
 
 
@@ -199,9 +199,9 @@ def test_roof_points_under_a_crown_of_draw_26_stay(monkeypatch) -> None:
     The slopes do not bound such points, which are the surface under something."""
     from pyheracles.complex import segment
 
-    _, f1 = _run(26)
+    _, f1 = run_complex_draw(26)
     assert f1["building/B18"] >= 0.9
     plain = segment.crown_points
     monkeypatch.setattr(segment, "crown_points", lambda *a, under=None, **k: plain(*a, **k))
-    _, f1_slopes = _run(26)
+    _, f1_slopes = run_complex_draw(26)
     assert f1_slopes["building/B18"] < 0.9

@@ -36,7 +36,7 @@ def _draw(seed: int):
     return sim, cloud, prepare_layers(sim.extras["layers"], cloud)
 
 
-def _run(seed: int, params: ComplexParams | None = None):
+def run_complex_draw(seed: int, params: ComplexParams | None = None):
     """Step 1 on a draw: (tree points put into objects, F1 per feature of 10 points or more)."""
     sim, cloud, layers = _draw(seed)
     seg = segment_complex(cloud, layers, params).segmentation
@@ -54,7 +54,7 @@ def test_buffer_does_not_grow_with_the_spacing() -> None:
     into objects and its walls scored F1 0.51-0.88 (median 0.68); 1 m leaves crowns out."""
     assert resolve_params(ComplexParams(), 2.53).buffer_m == 1.0
     assert resolve_params(ComplexParams(), 0.05).buffer_m == 1.0
-    taken, f1 = _run(5)
+    taken, f1 = run_complex_draw(5)
     assert taken <= 40
     walls = [v for k, v in f1.items() if k.startswith("wall/")]
     assert np.median(walls) >= 0.85 and np.median(list(f1.values())) >= 0.95
@@ -64,7 +64,7 @@ def test_small_buildings_of_a_sparse_survey_get_objects() -> None:
     """Draw 9 (0.16 points/m^2): B19 (10 points, 2 of them on the ground) got no object
     with 10 points required for one; a few points on 1 m^2 are enough."""
     assert resolve_params(ComplexParams(), 1.78).min_cluster_points == 5
-    _, f1 = _run(9)
+    _, f1 = run_complex_draw(9)
     assert f1["building/B19"] >= 0.8 and f1["building/B17"] >= 0.8
 
 
@@ -75,7 +75,7 @@ def test_echoes_decide_where_the_surface_variation_flags_a_whole_building(monkey
     The points where a pulse ended and that are not amid pass-through returns now make
     the core (F1 0.96 and 0.93; one single return of the crown 5 m over B06's roof joins
     it)."""
-    _, f1 = _run(9)
+    _, f1 = run_complex_draw(9)
     assert f1["building/B06"] >= 0.95 and f1["building/B32"] >= 0.9
     # without the solid points as a core both are lost, as before
     from pyheracles.complex import clusters, segment
@@ -84,14 +84,14 @@ def test_echoes_decide_where_the_surface_variation_flags_a_whole_building(monkey
         return clusters.object_points(*args, **kwargs)
 
     monkeypatch.setattr(segment, "object_points", geometry_only)
-    _, f1 = _run(9)
+    _, f1 = run_complex_draw(9)
     assert f1["building/B06"] == 0.0 and f1["building/B32"] == 0.0
 
 
 def test_crowns_over_roofs_stay_out() -> None:
     """Draw 18 (1.8 points/m^2, crowns over a third of the roofs): without the echoes,
     805 tree points joined objects; the porous points held to the roof surface: < 660."""
-    taken, f1 = _run(18)
+    taken, f1 = run_complex_draw(18)
     assert taken < 660
     assert np.median(list(f1.values())) >= 0.965
 
@@ -99,7 +99,7 @@ def test_crowns_over_roofs_stay_out() -> None:
 def test_scattered_points_rise_little_above_a_sparse_roof() -> None:
     """Draw 26 (0.39 points/m^2, spacing 1.2 m): scattered points allowed 3 spacings (3.5 m)
     above an object's top put 61 tree points into objects (median F1 0.923); 1 m: 51."""
-    taken, f1 = _run(26)
+    taken, f1 = run_complex_draw(26)
     assert taken <= 56
     assert np.median(list(f1.values())) >= 0.94
     with pytest.raises(InputError, match="scatter_above_top_m"):
@@ -150,8 +150,8 @@ def test_smooth_patches_of_a_crown_do_not_chain_it_to_a_roof() -> None:
     alone (the floating-cluster test, part of ``outside_above_top_m``, leaves 491 tree
     points out without the vote, 533 before it)."""
     alone = ComplexParams(crown_rise_m=None)
-    off, f1_off = _run(18, replace(alone, scatter_vote_neighbours=None))
-    taken, f1 = _run(18, alone)
+    off, f1_off = run_complex_draw(18, replace(alone, scatter_vote_neighbours=None))
+    taken, f1 = run_complex_draw(18, alone)
     assert off > 450 and f1_off["building/B23"] < 0.7
     assert taken < 400 and f1["building/B23"] >= 0.95
     assert np.median(list(f1.values())) >= 0.975
@@ -192,11 +192,11 @@ def test_nothing_outside_a_polygon_rises_over_its_top() -> None:
     rule (``crown_rise_m``, see test_complex_crowns.py) takes most of them out too: it
     is off here, to show this rule alone."""
     alone = ComplexParams(crown_rise_m=None)
-    off, _ = _run(5, replace(alone, outside_above_top_m=None))
-    taken, _ = _run(5, alone)
+    off, _ = run_complex_draw(5, replace(alone, outside_above_top_m=None))
+    taken, _ = run_complex_draw(5, alone)
     assert taken < off
-    off, f1_off = _run(14, replace(alone, outside_above_top_m=None))
-    taken, f1 = _run(14, alone)
+    off, f1_off = run_complex_draw(14, replace(alone, outside_above_top_m=None))
+    taken, f1 = run_complex_draw(14, alone)
     assert taken < off
     assert f1_off["building/B09"] < 0.95 and f1["building/B09"] >= 0.98
     with pytest.raises(InputError, match="outside_above_top_m"):
@@ -225,6 +225,6 @@ def test_crown_returns_of_a_sparse_survey_stay_out_of_small_objects() -> None:
     """Draw 2 (0.17 points/m^2): crowns over small buildings and a wall were not porous
     (the vote's 16 neighbours spanned the building), 23 tree points joined objects and
     W08 scored F1 0.74, B07 0.85.  Voting within a crown's radius: 11, F1 0.96 each."""
-    taken, f1 = _run(2)
+    taken, f1 = run_complex_draw(2)
     assert taken <= 15
     assert f1["wall/W08"] >= 0.9 and f1["building/B07"] >= 0.9

@@ -11,7 +11,7 @@ import numpy as np
 import shapely
 
 from pyheracles.complex.cookie import GridIndex, nearest_layer
-from test_complex_foliage import _run
+from test_complex_foliage import run_complex_draw
 
 
 def _layers():
@@ -43,5 +43,5 @@ def test_a_ring_point_is_left_to_the_nearer_feature_of_another_layer() -> None:
 
 
 def test_draw_0_gate_leaves_the_wall_end_to_the_wall() -> None:
-    _, f1 = _run(0)
+    _, f1 = run_complex_draw(0)
     assert f1["gate/G01"] >= 0.9, f1["gate/G01"]

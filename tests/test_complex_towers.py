@@ -13,7 +13,7 @@ import numpy as np
 
 from pyheracles.complex import ComplexParams, resolve_params
 from pyheracles.complex.clusters import object_points, solid_structures
-from test_complex_foliage import _run
+from test_complex_foliage import run_complex_draw
 
 
 def _gate(rng: np.random.Generator):
@@ -56,7 +56,7 @@ def test_solid_structures_need_size_footprint_and_solid_returns() -> None:
 
 
 def test_draw_16_gate_keeps_both_towers() -> None:
-    _, f1 = _run(16)
+    _, f1 = run_complex_draw(16)
     assert f1["gate/G01"] >= 0.85, f1["gate/G01"]
 
 
@@ -103,5 +103,5 @@ def test_a_mostly_smooth_object_keeps_its_top() -> None:
 
 
 def test_draw_23_gate_keeps_its_tower_top() -> None:
-    _, f1 = _run(23)
+    _, f1 = run_complex_draw(23)
     assert f1["gate/G03"] >= 0.95, f1["gate/G03"]
