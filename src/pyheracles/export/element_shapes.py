@@ -234,21 +234,23 @@ def _face_levels(
     def inside(small: Any, big: Any) -> bool:  # the small outline within the big one
         return bool(small.area > 0 and small.difference(big).area < 0.1 * small.area)
 
+    def outside(lo: float, hi: float, outline: Any) -> NDArray[np.bool_]:
+        """The points from ``lo`` to ``hi`` outside ``outline``."""
+        sel = (tq >= lo) & (tq <= hi)
+        sel[sel] = ~shapely.contains_xy(outline, q[sel, 0], q[sel, 1])
+        return sel
+
     for k in range(len(slabs) - 1):
         b = t1s[k]
         if abs(t0s[k + 1] - b) > 1e-9 or not (polys[k].is_valid and polys[k + 1].is_valid):
             continue
         lo, hi = t0s[k], t1s[k + 1]
         if inside(polys[k + 1], polys[k]):  # a step in: the wider slab's top face
-            sel = (tq >= lo) & (tq <= b)
-            own = sel.copy()
-            own[sel] = ~shapely.contains_xy(polys[k + 1], q[sel, 0], q[sel, 1])
+            own = outside(lo, b, polys[k + 1])
             if own.sum() >= min_points:
                 b = min(b, max(_level(tq[own], win, top=True), lo + eps))
         elif inside(polys[k], polys[k + 1]):  # a step out: the wider slab's underside
-            sel = (tq >= b) & (tq <= hi)
-            own = sel.copy()
-            own[sel] = ~shapely.contains_xy(polys[k], q[sel, 0], q[sel, 1])
+            own = outside(b, hi, polys[k])
             if own.sum() >= min_points:
                 b = max(b, min(_level(tq[own], win, top=False), hi - eps))
         t1s[k], t0s[k + 1] = b, b

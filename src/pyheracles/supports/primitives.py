@@ -72,20 +72,15 @@ def fit_cone(
     e1 = np.cross(a0, [1.0, 0.0, 0.0] if abs(a0[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a0, e1)
-    rel0 = pts - point
 
     def geom(x: Array) -> tuple[Array, Array]:
         a = a0 + x[0] * e1 + x[1] * e2
         return point + x[2] * e1 + x[3] * e2, a / np.linalg.norm(a)
 
     def res(x: Array) -> Array:
-        c, a = geom(x)
-        rel = pts - c
-        t = rel @ a
-        d = np.linalg.norm(rel - np.outer(t, a), axis=1)
-        return d - (x[4] + x[5] * t)
+        return cone_residuals(pts, *geom(x), x[4], x[5])
 
-    cyl_res = np.linalg.norm(rel0 - np.outer(rel0 @ a0, a0), axis=1) - radius
+    cyl_res = cone_residuals(pts, point, a0, radius, 0.0)
     try:
         sol = least_squares(res, np.array([0, 0, 0, 0, radius, 0.0]), loss="soft_l1",
                             f_scale=f_scale, x_scale=1e-3)  # fmt: skip
