@@ -300,7 +300,35 @@ def test_cli_writes_the_draw_and_files_georef_reads(sim, tmp_path) -> None:
     T = read_transform_json(tmp_path / "geo" / "transform_interior.json")
     probe = sim.clouds["interior"].xyz[::5000]
     err = (probe @ T[:3, :3].T + T[:3, 3]) - _scene_xyz(sim, "interior")[::5000]
-    assert np.abs(err).max() < 0.02
+    # the four interior spheres stand about 1.6 m high: the tilt is weakly determined, and
+    # the cloud's far ends are off by what the adjustment's own precision says (and no more)
+    sigma = _propagated_sigma(tmp_path / "geo" / "transform_interior.json", probe)
+    assert np.abs(err).max() < 0.05
+    assert (np.abs(err) <= 4 * sigma + 0.001).all(), (np.abs(err) / sigma).max()
+    assert np.median(np.abs(err)) < 0.01
+
+
+def _propagated_sigma(path, xyz: np.ndarray) -> np.ndarray:
+    """Standard deviation per coordinate of the transformed points, from the transform's
+    parameters, their standard deviations and correlations (first-order propagation)."""
+    import json
+
+    from scipy.spatial.transform import Rotation
+
+    est = json.loads(path.read_text(encoding="utf-8"))["estimation"]
+    names = est["correlation"]["names"]
+    sd = np.array([est["std"][n] for n in names])
+    cov = np.array(est["correlation"]["matrix"]) * np.outer(sd, sd)
+    p0 = np.array([est["parameters"][n] for n in names])
+
+    def apply(p: np.ndarray) -> np.ndarray:
+        return xyz @ Rotation.from_euler("xyz", p[3:6]).as_matrix().T + p[:3]
+
+    np.testing.assert_allclose(apply(p0), xyz @ np.array(est["T_target_source"])[:3, :3].T
+                               + np.array(est["T_target_source"])[:3, 3], atol=1e-6)  # fmt: skip
+    h = 1e-6
+    jac = np.stack([(apply(p0 + h * e) - apply(p0 - h * e)) / (2 * h) for e in np.eye(len(p0))], -1)
+    return np.sqrt(np.einsum("nik,kl,nil->ni", jac, cov, jac))
 
 
 def test_photogrammetry_exterior_sees_no_glass() -> None:

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtri
 
 from pyheracles.errors import InputError
 from pyheracles.synthetic.scene import Scene
@@ -341,6 +342,72 @@ _POINT_FIELDS = (
 
 
 # ---------------------------------------------------------------------------
+# random numbers per ray
+# ---------------------------------------------------------------------------
+# Why hand-written and not a numpy Generator: a Generator hands out numbers in
+# sequence, so the noise of a point would depend on how many rays hit before it.
+# Embree's hits at triangle edges differ between instruction sets (AVX2 vs
+# AVX-512 builds of the same intersector), so one ray more or less on another CPU
+# shifted every later point's noise and made the generated families differ from
+# machine to machine. A counter-based hash gives each ray its own numbers: a ray
+# that hits differently changes its own point only. numpy offers counter-based
+# bit generators (Philox) but no way to evaluate them per element.
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_STREAM = np.uint64(0xD1B54A32D192ED03)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+
+
+def ray_ids(outer: ArrayLike, inner: ArrayLike) -> NDArray[np.uint64]:
+    """One 64-bit id per ray from its two grid indices (e.g. azimuth column, elevation row)."""
+    a = np.asarray(outer).astype(np.uint64)
+    b = np.asarray(inner).astype(np.uint64)
+    return (a << np.uint64(32)) | b
+
+
+def ray_uniform(key: int, rays: NDArray[np.uint64], stream: int) -> Array:
+    """Uniform numbers in (0, 1), one per ray, that depend only on (key, ray, stream).
+
+    SplitMix64's finaliser (Steele, Lea and Flood 2014) applied to the ray id
+    offset by the key and the stream: different streams of the same ray are
+    independent draws.
+
+    Parameters
+    ----------
+    key
+        The acquisition's key (drawn once from the scan's generator).
+    rays
+        Ray ids (:func:`ray_ids`).
+    stream
+        Which draw of the ray (detection, noise, glass layer ...).
+
+    Examples
+    --------
+    >>> u = ray_uniform(7, ray_ids([0, 0, 1], [0, 1, 0]), 0)
+    >>> bool(((u > 0) & (u < 1)).all()), len(set(u.tolist()))
+    (True, 3)
+    >>> bool((ray_uniform(7, ray_ids([1], [0]), 0) == u[2]).all())
+    True
+    """
+    with np.errstate(over="ignore"):
+        x = rays * _GOLDEN + np.uint64(key) + np.uint64(stream) * _STREAM
+        x = (x ^ (x >> np.uint64(30))) * _MIX1
+        x = (x ^ (x >> np.uint64(27))) * _MIX2
+        x = x ^ (x >> np.uint64(31))
+    return ((x >> np.uint64(11)).astype(np.float64) + 0.5) * 2.0**-53
+
+
+def ray_normal(key: int, rays: NDArray[np.uint64], stream: int) -> Array:
+    """Standard normal numbers, one per ray (:func:`ray_uniform` through the normal quantile)."""
+    return ndtri(ray_uniform(key, rays, stream))
+
+
+def acquisition_key(rng: np.random.Generator) -> int:
+    """The key of one acquisition: one draw of the scan's generator, whatever it hits."""
+    return int(rng.integers(0, 2**63))
+
+
+# ---------------------------------------------------------------------------
 # ray casting
 # ---------------------------------------------------------------------------
 class RayCaster:
@@ -434,12 +501,18 @@ class RayCaster:
 # ---------------------------------------------------------------------------
 # acquisitions -> points
 # ---------------------------------------------------------------------------
+# the draws of one ray (streams of ray_uniform)
+_DETECT_STREAM, _NOISE_STREAM, _GLASS_STREAM, _MIXED_STREAM = 0, 1, 2, 10
+_MATCH_STREAM, _PHOTO_NOISE_STREAM = 20, 21
+
+
 def _incidence_cos(caster: RayCaster, prim: NDArray[np.int64], d: Array) -> Array:
     return np.abs(np.einsum("ij,ij->i", caster.normals[prim], d))
 
 
 def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[str, Any]:
     st.validate()
+    key = acquisition_key(rng)  # every later draw is the ray's own (see ray_uniform)
     step = np.deg2rad(st.step_deg)
     az = np.arange(np.deg2rad(st.azimuth_deg[0]), np.deg2rad(st.azimuth_deg[1]) - 1e-12, step)
     el = np.arange(np.deg2rad(st.elevation_deg[0]), np.deg2rad(st.elevation_deg[1]) + 1e-12, step)
@@ -474,9 +547,10 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     # only the beams that passed the previous glass face are tested at the next one: a
     # beam that did not pass returns from that face (it is not re-drawn)
     active = np.ones(len(flat), bool)
-    for _ in range(4):
+    for layer in range(4):
         tr = caster.transmittance[prim]
-        go = np.flatnonzero(active & (tr > 0) & (rng.random(len(prim)) < tr))
+        u = ray_uniform(key, ray_ids(ia, ie), _GLASS_STREAM + layer)
+        go = np.flatnonzero(active & (tr > 0) & (u < tr))
         active = np.zeros(len(prim), bool)
         active[go] = True
         if len(go) == 0:
@@ -499,15 +573,18 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     ok = (r >= st.range_m[0]) & (r <= st.range_m[1])
     ok &= cosi >= np.sin(np.deg2rad(st.grazing_limit_deg))
     signal = caster.reflectance[prim] * cosi * (10.0 / np.maximum(r, 0.1)) ** 2
-    ok &= rng.random(len(r), dtype=np.float32) < 1 - np.exp(-signal / st.detection)
+    rays = ray_ids(ia, ie)
+    ok &= ray_uniform(key, rays, _DETECT_STREAM) < 1 - np.exp(-signal / st.detection)
     # mixed pixels: a beam at a depth edge between two different surfaces of the grid;
     # only the few candidate edges (a range jump or sky beside) are examined further
     mixed = np.zeros(len(flat), bool)
     r_mix = r.copy()
     Rf, Pf = R.reshape(-1), P.reshape(-1)
-    for nb_flat, valid in (
-        (flat + ne, ia + 1 < na),  # next column (azimuth)
-        (flat + 1, ie + 1 < ne),  # next row (elevation)
+    for side, (nb_flat, valid) in enumerate(
+        (
+            (flat + ne, ia + 1 < na),  # next column (azimuth)
+            (flat + 1, ie + 1 < ne),  # next row (elevation)
+        )
     ):
         cand = np.flatnonzero(valid & ~mixed)
         nbf = nb_flat[cand]
@@ -521,10 +598,13 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
             np.einsum("ij,ij->i", caster.normals[pn[other]], caster.normals[prim[cand[other]]])
             < 0.95
         )
-        keep = (sky | other) & (rng.random(len(cand)) < st.mixed_pixel_share / 2)
+        stream = _MIXED_STREAM + 3 * side
+        u = ray_uniform(key, rays[cand], stream)
+        keep = (sky | other) & (u < st.mixed_pixel_share / 2)
         cand, rn, sky = cand[keep], rn[keep], sky[keep]
-        far = np.where(sky, r[cand] + rng.uniform(0.2, 2.0, len(cand)), rn)
-        r_mix[cand] = r[cand] + rng.random(len(cand)) * (far - r[cand])
+        beyond = 0.2 + 1.8 * ray_uniform(key, rays[cand], stream + 1)
+        far = np.where(sky, r[cand] + beyond, rn)
+        r_mix[cand] = r[cand] + ray_uniform(key, rays[cand], stream + 2) * (far - r[cand])
         mixed[cand] = True
     mixed &= ok
     idx = np.flatnonzero(ok)
@@ -532,7 +612,7 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     glass = caster.transmittance[prim[idx]] > 0
     sigma = st.noise_m + st.noise_per_m * r_out
     sigma = np.where(glass, sigma * 3, sigma)  # weak returns are noisier
-    r_out = r_out + rng.normal(0.0, 1.0, len(idx)) * sigma
+    r_out = r_out + ray_normal(key, rays[idx], _NOISE_STREAM) * sigma
     dd = d[idx]
     xyz = origin + r_out[:, None] * dd
     inten = np.clip(np.sqrt(signal[idx]) * 20000, 1, 65535).astype(np.uint16)
@@ -579,6 +659,7 @@ def _photo(caster: RayCaster, pv: PhotoViews, rng: np.random.Generator) -> dict[
     cam_dirs /= np.linalg.norm(cam_dirs, axis=1, keepdims=True)
     cos_max = np.cos(np.deg2rad(pv.max_incidence_deg))
     out_xyz, out_prim, out_view, out_int = [], [], [], []
+    key = acquisition_key(rng)  # every later draw is the pixel's own (see ray_uniform)
     for ci, (c, R) in enumerate(zip(C, Rs, strict=True)):
         d = cam_dirs @ R
         t, prim = caster.cast(c, d)
@@ -618,13 +699,13 @@ def _photo(caster: RayCaster, pv: PhotoViews, rng: np.random.Generator) -> dict[
             best[vc[better]] = False
         keep = best & (seen >= pv.min_views)
         # sparser on faces seen at grazing angles: matching fails more often there
-        keep &= rng.random(len(keep)) < np.clip(cos_c / 0.5, 0.0, 1.0)
+        pixels = ray_ids(np.full(len(idx), ci), idx)
+        keep &= ray_uniform(key, pixels, _MATCH_STREAM) < np.clip(cos_c / 0.5, 0.0, 1.0)
         k = np.flatnonzero(keep)
         sig = np.clip(pv.sigma_m * t[idx[k]] / pv.reference_range_m, *pv.sigma_clip_m)
         # mostly along the viewing ray (depth), a third of it across
-        noise = (
-            d[idx[k]] * rng.normal(0, 1, len(k))[:, None] + rng.normal(0, 1 / 3, (len(k), 3))
-        ) * sig[:, None]
+        depth, *across = (ray_normal(key, pixels[k], _PHOTO_NOISE_STREAM + j) for j in range(4))
+        noise = (d[idx[k]] * depth[:, None] + np.column_stack(across) / 3) * sig[:, None]
         out_xyz.append(X[k] + noise)
         out_prim.append(p[k])
         out_view.append(np.full(len(k), ci))
@@ -873,7 +954,7 @@ def scan(
     >>> s = Scene()
     >>> s.add_box([0, 0, -0.05], [20, 20, 0.1], instance=0, class_name="floor")
     >>> res = scan(s, TLSStation((0, 0, 1.5), step_deg=1.0), rng=0)
-    >>> bool((abs(res.xyz[:, 2]) < 0.06).all())
+    >>> bool((abs(res.xyz[~res.outlier, 2]) < 0.06).all())  # mixed pixels are outliers
     True
     """
     gen = np.random.default_rng(rng)
