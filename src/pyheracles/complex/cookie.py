@@ -15,6 +15,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from pyheracles.complex.surfaces import face_choice
 from pyheracles.progress import track
 
 __all__ = [
@@ -158,11 +159,14 @@ def overlaps_by_continuity(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
     """Claims of the points inside several polygons (crudely digitised overlaps), resolved.
 
-    Such a point goes to the polygon whose own points (those inside it alone)
-    it is nearest to along chains of points no longer than ``link_m`` per step
-    (multi-source Dijkstra over the contested points and the seeds beside
-    them): the roof over an overlap continues the building it belongs to.  A
-    point no chain reaches keeps all its claims (the caller's tie-break).
+    Such a point goes to the polygon whose roof face it lies on, where one clearly
+    carries it (see :func:`pyheracles.complex.surfaces.face_choice`: neighbouring roofs
+    slope down to the strip of their overlap from either side); else to the polygon
+    whose own points (those inside it alone) it is nearest to along chains of points
+    no longer than ``link_m`` per step (multi-source Dijkstra over the contested
+    points and the seeds beside them): the roof over an overlap continues the
+    building it belongs to.  A point neither decides keeps all its claims (the
+    caller's tie-break).
     """
     inside = dist == 0.0
     n_in = np.bincount(pts[inside], minlength=n)
@@ -170,15 +174,38 @@ def overlaps_by_continuity(
     seed_row = inside & (n_in[pts] == 1)
     if not contested_row.any() or not seed_row.any():
         return pts, poly, dist
+    seeds, seed_poly = pts[seed_row], poly[seed_row]
+    chosen = np.full(n, -1, dtype=np.int64)
+    contested = np.unique(pts[contested_row])
+    chosen[contested] = _chains(contested, seeds, seed_poly, xyz, link_m)
+    on_face, face = face_choice(
+        xyz, pts[contested_row], poly[contested_row], seeds, seed_poly, link_m
+    )
+    chosen[on_face[face >= 0]] = face[face >= 0]
+    # keep a contested point's claim by the chosen polygon only (if that one contains it)
+    has_choice = np.zeros(n, dtype=bool)
+    has_choice[pts[contested_row & (poly == chosen[pts])]] = True
+    drop = has_choice[pts] & (poly != chosen[pts])
+    return pts[~drop], poly[~drop], dist[~drop]
+
+
+def _chains(
+    contested: NDArray[np.int64],
+    seeds: NDArray[np.int64],
+    seed_poly: NDArray[np.int64],
+    xyz: NDArray[np.float64],
+    link_m: float,
+) -> NDArray[np.int64]:
+    """Polygon of the seed nearest to each contested point along chains of points no
+    longer than ``link_m`` per step; -1 where none reaches it."""
     from scipy.sparse.csgraph import dijkstra
     from scipy.spatial import cKDTree
 
-    contested = np.unique(pts[contested_row])
-    seeds, seed_poly = pts[seed_row], poly[seed_row]
+    out = np.full(len(contested), -1, dtype=np.int64)
     near, _ = cKDTree(xyz[contested]).query(xyz[seeds], k=1, distance_upper_bound=link_m)
     front = np.isfinite(near)
     if not front.any():
-        return pts, poly, dist
+        return out
     nodes = np.concatenate([seeds[front], contested])
     tree = cKDTree(xyz[nodes])
     graph = tree.sparse_distance_matrix(tree, link_m, output_type="coo_matrix").tocsr()
@@ -187,13 +214,7 @@ def overlaps_by_continuity(
         return_predecessors=True,
     )  # fmt: skip
     src = sources[int(front.sum()) :]
-    chosen = np.full(n, -1, dtype=np.int64)
-    chosen[contested] = np.where(src >= 0, seed_poly[front][np.maximum(src, 0)], -1)
-    # keep a contested point's claim by the chosen polygon only (if that one contains it)
-    has_choice = np.zeros(n, dtype=bool)
-    has_choice[pts[contested_row & (poly == chosen[pts])]] = True
-    drop = has_choice[pts] & (poly != chosen[pts])
-    return pts[~drop], poly[~drop], dist[~drop]
+    return np.where(src >= 0, seed_poly[front][np.maximum(src, 0)], -1)
 
 
 def nearest_layer(
