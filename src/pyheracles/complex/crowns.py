@@ -94,7 +94,12 @@ def crown_pass(
     object's surface beside it, and at least ``share`` of the points around it
     (3D, within ``radius_m``: the other members and the ``off`` points) are
     ``off`` points no lower than ``below_m`` under it: the blob runs on off the
-    polygons at its height.  Only the crown's points within ``radius_m`` of its
+    polygons at its height.  For a point ``under`` something only the ``off``
+    points within ``below_m`` of its height count: its pulse went through what stands
+    over it, and a crown over a roof is no sign that the roof is a crown's (complex
+    draw 9, B19: a pavilion's roof point, the last of three returns, 3.3 m over the
+    platform beside it, was peeled for the crown 0.7-3.5 m over it off the polygon).
+    Only the crown's points within ``radius_m`` of its
     part off the polygons are found: the clustering distance that chained them
     to the roof.
 
@@ -141,7 +146,8 @@ def crown_pass(
         inside.
     under
         Mask over ``members`` of the last returns of pulses with several
-        returns; ``None``: none.
+        returns; ``None``: none.  The slopes do not bound them, and only the ``off``
+        points at their height count for them.
 
     Returns
     -------
@@ -188,11 +194,14 @@ def crown_pass(
     if len(at) == 0:
         return flag
     # the blob runs on off the polygons: enough of the points around are off points
-    # at its height or higher
+    # at its height or higher; for a point under something, at its height only (the crown
+    # over it is what its pulse went through)
     near_off = off_tree.query_ball_point(p[at], radius_m)
     near_mem = xy_tree.query_ball_point(p[at, :2], radius_m)
+    reach = np.full(len(at), np.inf) if under is None else np.where(under[at], below_m, np.inf)
     for j, i in enumerate(at):
-        n_off = int((q[np.asarray(near_off[j], dtype=np.int64), 2] >= p[i, 2] - below_m).sum())
+        dz = q[np.asarray(near_off[j], dtype=np.int64), 2] - p[i, 2]
+        n_off = int(((dz >= -below_m) & (dz <= reach[j])).sum())
         around = p[np.asarray(near_mem[j], dtype=np.int64)]
         n_mem = int((((around - p[i]) ** 2).sum(axis=1) <= radius_m**2).sum()) - 1  # not itself
         flag[i] = n_off > 0 and n_off >= share * (n_off + n_mem)
