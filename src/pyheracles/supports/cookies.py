@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from pyheracles.geometry.sections import sort_order
 from pyheracles.segment.euclidean import voxel_clusters
 from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.floors import foot_floor
 from pyheracles.supports.piers import (
     FOOT_FROM_M,
     FOOT_REACH_M,
@@ -279,6 +280,17 @@ def extract_support(
     # the gap, and a pulpit's tub cut as a pier is not to be joined to its post: draw 24)
     conn = np.isin(lab, good)
     if sh["class"] != "pier":
+        # and not below the level its foot stands on: at a dais's edge the ring holds
+        # the ground beyond it, and the dais's face flush with a plinth is no piece of
+        # it (the level is read in the ring's outer half: a plinth's corners reach into
+        # the inner half)
+        outer = (rho > sh["buffer"] + 0.5 * RING_M) & (z < h_sec)
+        foot_z = foot_floor(
+            pts[outer, :2], z[outer], float(cpts[conn, 2].min()), floor_z, cell, ftol
+        )
+        if foot_z > floor_z:
+            foot_tol = params.floor_tolerance_m or surface_tolerance(z[outer], foot_z, cell, bounds)
+            lab = np.where(cpts[:, 2] > foot_z + foot_tol, lab, 0)
         conn = end_pieces(cpts[:, 2], crho, cang, lab, conn, cell, min(n_sec, 72))
     cidx, crho, cpts = cidx[conn], crho[conn], cpts[conn]
     height = float(np.ptp(cpts[:, 2]))
