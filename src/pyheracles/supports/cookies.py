@@ -217,7 +217,7 @@ def extract_support(
     )
     wall = np.zeros(len(z), dtype=bool)
     front = None
-    if sh["class"] == "engaged_column":
+    if sh["class"] == "engaged_column" or sh.get("respond", False):
         front = pts[:, :2] @ sh["normal"] - sh["d"]  # distance to the face, + into the room
         wall = front <= sh["face_gap"]  # 3 sigma of the wall face off the face
     free = np.flatnonzero(~wall)
@@ -251,6 +251,8 @@ def extract_support(
         # a bench touching a one-sided scanned column is no wall)
         top = top_z if np.isfinite(top_z) else z_range[1]
         if face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5:
+            if sh.get("respond", False):
+                return None  # a bump on a wall that does not rise with it: clutter
             sh["class"] = "column"
             wall[:] = False
     inside = ~ring & ~wall & (z > floor_z + ftol) & (z < top_z - ctol)
@@ -304,14 +306,18 @@ def extract_support(
         )
         feet = foot_levels(cpts[:, 2], floor_z, ftol)
         own_top = float(cpts[:, 2].max()) if np.isfinite(top_z) else None
-        if sh["class"] == "pier" and (
-            share > MAX_ATTACHED_SHARE
-            or wall_piece_in_bands(p, pts, rho, sh, sc, h_sec, feet, own_top, height_band)
+        if (
+            sh["class"] == "pier"
+            and not sh.get("respond", False)
+            and (
+                share > MAX_ATTACHED_SHARE
+                or wall_piece_in_bands(p, pts, rho, sh, sc, h_sec, feet, own_top, height_band)
+            )
         ):  # joined to a wall in most layers, or the wall runs on from its foot or over
             # the lintels beside it: a wall piece between openings
             sh["wall_edge"] = True
             return None
-        if share > MAX_ATTACHED_SHARE:
+        if sh["class"] == "column" and share > MAX_ATTACHED_SHARE:
             sh["class"] = "engaged_column"
         elif sh["class"] == "column":
             mine = np.zeros(len(z), dtype=bool)

@@ -26,14 +26,16 @@ from pyheracles.supports.core import (
     scales,
 )
 from pyheracles.supports.height import choose_height, dense_extent
-from pyheracles.supports.piers import in_wall_line, wall_alongside, wall_fragment
+from pyheracles.supports.piers import WALL_LINE_GAP_M, in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
+from pyheracles.supports.responds import respond_island, responds_on_wall
 from pyheracles.supports.rings import (
     RING_RADIUS_M,
     WALL_BAND_M,
     detached_half_column,
     engaged_on_wall,
     wall_face_beside,
+    wall_face_lines,
 )
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 
@@ -175,7 +177,7 @@ def detect_supports_checked(
         s2, e2 = np.searchsorted(z_sorted, [h_low - sc.thickness / 2, h_low + sc.thickness / 2])
         low_idx = order[s2:e2]
         low_islands = section_islands(p[low_idx, :2], params, sc.distance)
-        low_shapes, _ = support_shapes(p[low_idx, :2], low_islands, params, sc, rng)
+        low_shapes, _ = support_shapes(p[low_idx, :2], low_islands, params, sc, rng, responds=False)
         for sh in low_shapes:
             sh["h_sec"] = h_low
         shapes = dedupe(shapes + low_shapes)
@@ -191,7 +193,9 @@ def detect_supports_checked(
         )
         thick_idx = order[s3:e3]
         thick_islands = section_islands(p[thick_idx, :2], params, sc.distance)
-        thick_shapes, _ = support_shapes(p[thick_idx, :2], thick_islands, params, sc, rng)
+        thick_shapes, _ = support_shapes(
+            p[thick_idx, :2], thick_islands, params, sc, rng, responds=False
+        )
         walls = [p[thick_idx[i.index], :2] for i in thick_islands if i.kind == "wall"]
         wall_tree = cKDTree(np.vstack(walls)) if walls else None
         thin_xy = p[sec_idx, :2]
@@ -520,15 +524,18 @@ def clear_of(sh: dict, shapes: list[dict]) -> bool:
     )
 
 
-def wall_pieces(xy: Array, islands: list[Island], sc: Scales) -> set[int]:
-    """Indices of the pier islands that are pieces of walls.
+def wall_pieces(
+    xy: Array, islands: list[Island], sc: Scales, keep: set[int] | None = None
+) -> set[int]:
+    """Indices of the pier islands that are pieces of walls (none of ``keep``: the
+    responds, :func:`respond_islands`).
 
     A piece is in line with the wall beside it (:func:`wall_fragment`), lies on the
     line of a wall face (:func:`in_wall_line`) or has a wall face running alongside it
     (:func:`wall_alongside`); a piece found so joins the wall, so a
     run of pieces between openings is found from the wall at its end.
     """
-    piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
+    piers = [k for k, i in enumerate(islands) if i.kind == "pier" and k not in (keep or set())]
     if not piers:
         return set()
     tree = cKDTree(xy)
@@ -553,14 +560,43 @@ def wall_pieces(xy: Array, islands: list[Island], sc: Scales) -> set[int]:
         pieces |= new
 
 
+def respond_islands(xy: Array, islands: list[Island], sc: Scales) -> dict[int, dict]:
+    """The section shapes of the pier islands that are responds, by island index
+    (:func:`~pyheracles.supports.responds.respond_island`: a bump out of the face of
+    the wall that goes on beyond its ends, which otherwise makes it a piece of that
+    wall)."""
+    piers = [k for k, i in enumerate(islands) if i.kind == "pier"]
+    if not piers:
+        return {}
+    tree = cKDTree(xy)
+    bin_m = max(0.05, 3.0 * sc.spacing)
+    out = {}
+    for k in piers:
+        isl = islands[k]
+        near = tree.query_ball_point(isl.center, float(np.hypot(*isl.size)) + WALL_LINE_GAP_M)
+        others = np.setdiff1d(np.asarray(near, dtype=np.intp), isl.index)
+        sh = respond_island(
+            xy[isl.index], isl.center, isl.angle, isl.size, xy[others], sc.tol, sc.distance,
+            bin_m,
+        )  # fmt: skip
+        if sh is not None:
+            out[k] = sh
+    return out
+
+
 def support_shapes(
     xy: Array,
     islands: list[Island],
     params: SupportParams,
     sc: Scales,
     rng: np.random.Generator,
+    *,
+    responds: bool = True,
 ) -> tuple[list[dict], int]:
-    """Section shapes of the supports: column / pier islands, half-columns on walls.
+    """Section shapes of the supports: column / pier islands, half-columns on walls and,
+    with ``responds``, piers against walls (:func:`respond_islands`,
+    :func:`~pyheracles.supports.responds.responds_on_wall`; in the main section only:
+    the low and the thick ones hold more of the clutter and of the walls' openings).
 
     Also returns the number of pier islands left out as pieces of walls
     (:func:`wall_pieces`).
@@ -572,8 +608,10 @@ def support_shapes(
     # rectangles along their faces, one piece beside the other looked like a wall
     # going on (draw 27); then the pieces of walls
     islands, _ = regroup_pier_pieces(xy, islands, set(), params, sc.distance)
-    pieces = wall_pieces(xy, islands, sc)
+    bumps = respond_islands(xy, islands, sc) if responds else {}
+    pieces = wall_pieces(xy, islands, sc, set(bumps))
     fragments = len(pieces)
+    on_wall: list[dict] = []  # responds on wall islands, after every other shape
     for k, isl in enumerate(islands):
         if k in pieces:
             continue
@@ -582,7 +620,9 @@ def support_shapes(
             if eng is not None:
                 shapes.append(eng)
                 continue
-        if isl.kind in ("column", "pier"):
+        if k in bumps:
+            shapes.append(bumps[k])
+        elif isl.kind in ("column", "pier"):
             shapes.append(
                 {
                     "class": isl.kind,
@@ -594,8 +634,14 @@ def support_shapes(
                 }
             )
         elif isl.kind == "wall" and params.engaged:
+            faces = wall_face_lines(xy[isl.index], sc.tol, sc.distance, rng)
+            if responds:  # after the half-columns: an arc is no rectangle
+                bin_m = max(0.05, 3.0 * sc.spacing)
+                on_wall += responds_on_wall(
+                    xy[isl.index], faces, params, sc.tol, sc.distance, bin_m, xy
+                )
             for c, r, nrm, d, face_rms in engaged_on_wall(
-                xy[isl.index], params, sc.tol, sc.distance, rng
+                xy[isl.index], params, sc.tol, sc.distance, rng, faces
             ):
                 shapes.append(
                     {
@@ -610,7 +656,7 @@ def support_shapes(
                         "circularity": float("nan"),
                     }
                 )
-    shapes = dedupe(shapes)
+    shapes = dedupe(shapes + on_wall)
     for sh in shapes:
         frac = params.pier_buffer_fraction if sh["class"] == "pier" else params.buffer_fraction
         sh["buffer"] = max(params.buffer_min_m, frac * float(np.max(sh["half"])))

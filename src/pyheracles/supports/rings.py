@@ -440,13 +440,13 @@ def refit_line(q: Array) -> tuple[Array, float, Array]:
     return n, float(n @ m), m
 
 
-def engaged_on_wall(
-    xy: Array, params: SupportParams, tol: float, distance: float, rng: np.random.Generator
-) -> list[tuple[Array, float, Array, float]]:
-    """Half-columns on a wall island.
-
-    Returns ``(centre, radius, unit face normal into the room, face offset, face RMS)``.
-    """
+def wall_face_lines(
+    xy: Array, tol: float, distance: float, rng: np.random.Generator
+) -> tuple[list[tuple[Array, float, float]], NDArray[np.intp]]:
+    """The straight faces of a wall island's section points ``xy``: ``(unit normal n,
+    offset d, RMS)`` per face (``n . x = d`` on it), each continuous over at least 1 m
+    (its inliers fill 70 % of their span: the aligned apexes of several half-columns
+    are not a face), and the indices of the points on none of them."""
     rest = np.arange(len(xy))
     lines: list[tuple[Array, float, float]] = []  # (unit normal n, offset d, rms): n.x = d
     msac = MSACParams(threshold=tol, max_trials=300, min_inlier_fraction=0.0)
@@ -472,6 +472,23 @@ def engaged_on_wall(
             break
         lines.append((n, d, float(np.sqrt(np.mean((p[inl] @ n - d) ** 2)))))
         rest = rest[~inl]
+    return lines, rest
+
+
+def engaged_on_wall(
+    xy: Array,
+    params: SupportParams,
+    tol: float,
+    distance: float,
+    rng: np.random.Generator,
+    faces: tuple[list[tuple[Array, float, float]], NDArray[np.intp]] | None = None,
+) -> list[tuple[Array, float, Array, float]]:
+    """Half-columns on a wall island (``faces``: its :func:`wall_face_lines`, found
+    here when not given).
+
+    Returns ``(centre, radius, unit face normal into the room, face offset, face RMS)``.
+    """
+    lines, rest = faces if faces is not None else wall_face_lines(xy, tol, distance, rng)
     if not lines or len(rest) < params.min_points:
         return []
     labels = euclidean_clusters(xy[rest], distance, params.min_points)
