@@ -22,6 +22,7 @@ __all__ = [
     "face_points",
     "fit_beam_cuboid",
     "fit_one_face_cuboid",
+    "going_back",
     "join_pieces",
     "merge_and_absorb",
     "same_section",
@@ -515,6 +516,27 @@ def edge_coverage(t: NDArray[np.float64], t_range: tuple[float, float], step: fl
     return float(min(1.0, occupied * step / span))
 
 
+def going_back(
+    t: NDArray[np.float64],
+    depth: NDArray[np.float64],
+    t_range: tuple[float, float],
+    step: float,
+    noise_m: float,
+) -> float:
+    """Coverage of a band's length by a side going back from its edge (0: no side).
+
+    ``t``: the side points' offsets along the band, ``depth``: how far behind
+    the band's plane they lie, metres.  A side face leaving the edge is
+    seen over some depth; points that reach no further than ``noise_m`` behind
+    the plane (90 % of them) are the tail of the band's own noise beside its
+    edge (a strip of boarding ending at a shadow: its scatter past the margin
+    lies on both sides of the plane), no side: coverage 0.
+    """
+    if len(t) == 0 or float(np.quantile(depth, 0.9)) < noise_m:
+        return 0.0
+    return edge_coverage(t, t_range, step)
+
+
 def _near(tree: cKDTree, start: NDArray, end: NDArray, radius: float) -> NDArray[np.int64]:
     """Indices of the tree's points within ``radius`` of the segment ``start``-``end``."""
     length = float(np.linalg.norm(end - start))
@@ -557,7 +579,8 @@ def fit_one_face_cuboid(
     alone: a band whose edge points leave the plane on one side only is
     convex towards the other.  A band is a channel (``None``) when points come
     forward from its edges and neither edge has a side going back over
-    ``min_cover`` of the length.
+    ``min_cover`` of the length (:func:`going_back`: reaching past twice the
+    face's noise margin, not the scatter of the band's own points).
 
     The face's width is read at half density across the band over the band's
     and the unassigned cloud points on its plane.  The depth behind the face
@@ -663,9 +686,11 @@ def fit_one_face_cuboid(
     back = off_lo if front > 0 else off_hi
     # per edge: a side going back from one edge makes the band convex even when
     # a surface comes forward from the other (the boarding on a rafter's top
-    # edge, seen from its side face); a channel has nothing going back
+    # edge, seen from its side face); a channel has nothing going back but the
+    # tail of its own noise (within twice the margin)
     back_cover = max(
-        edge_coverage(t_s[back & (np.abs(s_s - edge) <= e)], rng, step) for edge in (s_lo, s_hi)
+        going_back(t_s[sel], -front * h_s[sel], rng, step, 2.0 * margin)
+        for sel in (back & (np.abs(s_s - edge) <= e) for edge in (s_lo, s_hi))
     )
     if cover_ahead >= min_cover and back_cover < min_cover:
         return None  # a concave channel: the sides of two other members come forward

@@ -29,7 +29,12 @@ from pyheracles.beams.frame import FrameParams, frame_members
 from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
-from pyheracles.beams.surfaces import cuboid_contacts, resting_loose, wide_surface_bands
+from pyheracles.beams.surfaces import (
+    cuboid_contacts,
+    resting_loose,
+    seen_from_behind,
+    wide_surface_bands,
+)
 from pyheracles.beams.thinning import thin_to_spacing
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import DegenerateGeometryError, InputError
@@ -562,6 +567,24 @@ def segment_beams(
     # boxes thinner than any member: facets of a beam grouped with a strip of something else
     thin = np.array([thinner_than(c, p.min_beam_width_m) for c in cuboids], dtype=bool)
     cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~thin)
+    # the inside corner of two surfaces (a gable wall under the boarding): the box
+    # lies on the room's side of the faces it was fitted to, a member behind them
+    probe = arr[:: max(1, len(arr) // 50000)]
+    behind = np.array(
+        [
+            seen_from_behind(
+                c,
+                [f for f, g in zip(facets, facet_beam, strict=True) if g == i + 1],
+                tree,
+                probe,
+                p.max_beam_width_m,
+                p.parallel_deg,
+            )
+            for i, c in enumerate(cuboids)
+        ],
+        dtype=bool,
+    )
+    cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~behind)
     # timber stored on the floor: it and what it touches lie on a surface going on around
     contacts = cuboid_contacts(cuboids, max(contact, 2.0 * tol))
     loose = resting_loose(tree, cuboids, contacts)

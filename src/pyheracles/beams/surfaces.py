@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from pyheracles.beams.cuboids import edge_coverage
 from pyheracles.beams.model import BeamCuboid, StraightFacet
 
 __all__ = [
@@ -28,6 +29,7 @@ __all__ = [
     "plane_occupancy",
     "resting_loose",
     "room_side",
+    "seen_from_behind",
     "stands_proud",
     "wide_surface_bands",
 ]
@@ -144,6 +146,70 @@ def room_side(
     if neg >= ratio * max(pos, 1):
         return -1.0
     return 0.0
+
+
+def seen_from_behind(
+    cub: BeamCuboid,
+    facets: list[StraightFacet],
+    tree: cKDTree,
+    probe: NDArray[np.float64],
+    depth_m: float,
+    parallel_deg: float = 5.0,
+    margin_m: float = PROUD_MARGIN_M,
+    max_cover: float = 0.2,
+) -> bool:
+    """Whether a box lies in front of the faces it was fitted to: an inside corner.
+
+    A member is seen from the room: its body lies behind each seen face, on
+    the side away from the scanners.  Where two surfaces of the room's hull
+    meet at an inside corner (a gable wall under the boarding), their strips
+    along the corner are two straight bands at an angle, and the box fitted to
+    them lies on the room's side of both: it is the air in the corner, seen
+    from behind.  The room's side of each facet's plane is :func:`room_side`
+    (``probe``, a sample of the cloud; ``depth_m``, the deepest member
+    section); a facet with no room's side (a face inside the room) does not
+    count.  The box is such a corner when it lies on the room's side of every
+    facet that has one, these facets lie on at least two faces that are not
+    parallel (``parallel_deg``, degrees), and behind each of them the cloud
+    (``tree``) holds nothing within ``depth_m`` (farther than ``margin_m``
+    from the plane) over more than ``max_cover`` of its length (10 cm bins):
+    the hull ends the scan.  Behind a member's face grouped with the strip of
+    a wall head it rests on (a plate's inner side) lies the member's own top
+    or the wall's face: that box is a member fitted wrongly, not air.
+    """
+    if cub.faces_seen < 2 or len(facets) < 2:
+        return False
+    cos_par = np.cos(np.radians(parallel_deg))
+    away: list[tuple[StraightFacet, float]] = []
+    for f in facets:
+        front = room_side(probe, f.centre, f.normal, depth_m)
+        if front == 0:
+            continue
+        if np.sign(float((cub.centre - f.centre) @ f.normal)) != front:
+            return False  # the box is behind this face, as behind a member's face
+        away.append((f, front))
+    normals = np.array([f.normal for f, _ in away]).reshape(-1, 3)
+    if len(normals) < 2 or np.min(np.abs(normals @ normals[0])) >= cos_par:
+        return False
+    return all(_behind_cover(tree, f, front, depth_m, margin_m) <= max_cover for f, front in away)
+
+
+def _behind_cover(
+    tree: cKDTree, f: StraightFacet, front: float, depth_m: float, margin_m: float
+) -> float:
+    """Share of a facet's length with cloud points behind its plane (within ``depth_m``)."""
+    across = np.cross(f.normal, f.axis)
+    across /= np.linalg.norm(across)
+    reach = 0.5 * f.width + margin_m  # the band and its edges
+    radius = float(np.hypot(reach, depth_m))
+    t = np.arange(-0.5 * f.length, 0.5 * f.length + radius, radius)
+    hits = tree.query_ball_point(f.centre + t[:, None] * f.axis, r=radius, workers=1)
+    idx = np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits] + [[]]))
+    rel = tree.data[idx.astype(np.int64)] - f.centre
+    tt, ss, hh = rel @ f.axis, rel @ across, -front * (rel @ f.normal)
+    sel = (np.abs(tt) <= 0.5 * f.length) & (np.abs(ss) <= reach)
+    sel &= (hh > margin_m) & (hh <= depth_m)
+    return edge_coverage(tt[sel], (-0.5 * f.length, 0.5 * f.length), 0.1)
 
 
 def stands_proud(
