@@ -12,7 +12,6 @@ centimetre or two behind the tilted plane, was read as a side going back
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from pyheracles.beams.cuboids import fit_one_face_cuboid, going_back
 from pyheracles.beams.model import StraightFacet
@@ -71,20 +70,3 @@ def test_side_points_within_the_noise_are_no_side():
     assert going_back(t, np.full(60, 0.018), (0.0, 2.0), 0.1, 0.033) == 0.0
     deep = np.linspace(0.02, 0.15, 60)
     assert going_back(t, deep, (0.0, 2.0), 0.1, 0.033) > 0.2
-
-
-@pytest.mark.slow
-def test_roof_draw_4_boarding_sliver_is_no_member():
-    """Roof seed 4: 26 beams for 25 members, one made of boarding points."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from bench_framework import member_scores
-    from pyheracles.beams import segment_beams
-    from pyheracles.synthetic.families import simulate
-
-    sim = simulate("roof", 4)
-    s = member_scores(sim, segment_beams(sim.clouds["cloud"].xyz))
-    assert s["spurious"].get("boarding", 0) == 0
-    assert s["n_matched_f1_05"] == s["n_visible"]

@@ -9,7 +9,6 @@ long, seen on two faces: the air in the corner, seen from behind
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from pyheracles.beams.model import BeamCuboid, StraightFacet
 from pyheracles.beams.surfaces import seen_from_behind
@@ -105,21 +104,3 @@ def test_box_behind_its_faces_is_a_member():
         faces_seen=2,
     )
     assert not seen_from_behind(behind, facets, build_tree(xyz), xyz[::7], 0.6)
-
-
-@pytest.mark.slow
-def test_roof_draw_5_gable_corner_is_no_member():
-    """Roof seed 5: the corner of the gable wall and the boarding came out as a member
-    (35 beams for 34 members: one made of wall and boarding points)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from bench_framework import member_scores
-    from pyheracles.beams import segment_beams
-    from pyheracles.synthetic.families import simulate
-
-    sim = simulate("roof", 5)
-    s = member_scores(sim, segment_beams(sim.clouds["cloud"].xyz))
-    assert s["spurious"].get("wall", 0) == 0
-    assert s["n_matched_f1_05"] == s["n_visible"]

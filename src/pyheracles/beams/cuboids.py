@@ -64,6 +64,11 @@ def face_points(
     return np.vstack([own, cand[keep]])
 
 
+#: A side going back from a one-face band's edge must reach past this many noise
+#: margins (3 sigma of the face's scatter each) behind its plane: of points past
+#: 3 sigma of Gaussian noise, 90 % lie within 3.64 sigma (1.21 margins); the band's
+#: own scatter, or its surface going on at a tilt of a few degrees, reaches no farther.
+NOISE_TAIL_MARGINS = 1.5
 #: Fewest points on an unfaceted side of a beam that locate that side.
 _SPARSE_FACE_MIN_POINTS = 15
 #: Smallest share of the beam's length covered by those points (10 cm bins).
@@ -528,9 +533,10 @@ def going_back(
     ``t``: the side points' offsets along the band, ``depth``: how far behind
     the band's plane they lie, metres.  A side face leaving the edge is
     seen over some depth; points that reach no further than ``noise_m`` behind
-    the plane (90 % of them) are the tail of the band's own noise beside its
-    edge (a strip of boarding ending at a shadow: its scatter past the margin
-    lies on both sides of the plane), no side: coverage 0.
+    the plane (90 % of them) are the tail of the band's own scatter beside its
+    edge, or its surface going on at a slight tilt (roof seed 4: a sliver of
+    boarding 4 cm wide along a rafter, its plane tilted by 6 degrees, the
+    boarding beyond it 2 cm behind that plane), no side: coverage 0.
     """
     if len(t) == 0 or float(np.quantile(depth, 0.9)) < noise_m:
         return 0.0
@@ -579,8 +585,9 @@ def fit_one_face_cuboid(
     alone: a band whose edge points leave the plane on one side only is
     convex towards the other.  A band is a channel (``None``) when points come
     forward from its edges and neither edge has a side going back over
-    ``min_cover`` of the length (:func:`going_back`: reaching past twice the
-    face's noise margin, not the scatter of the band's own points).
+    ``min_cover`` of the length (:func:`going_back`: reaching past
+    ``NOISE_TAIL_MARGINS`` noise margins, not the scatter of the band's own
+    points nor its surface going on at a slight tilt).
 
     The face's width is read at half density across the band over the band's
     and the unassigned cloud points on its plane.  The depth behind the face
@@ -687,9 +694,9 @@ def fit_one_face_cuboid(
     # per edge: a side going back from one edge makes the band convex even when
     # a surface comes forward from the other (the boarding on a rafter's top
     # edge, seen from its side face); a channel has nothing going back but the
-    # tail of its own noise (within twice the margin)
+    # tail of its own scatter (NOISE_TAIL_MARGINS)
     back_cover = max(
-        going_back(t_s[sel], -front * h_s[sel], rng, step, 2.0 * margin)
+        going_back(t_s[sel], -front * h_s[sel], rng, step, NOISE_TAIL_MARGINS * margin)
         for sel in (back & (np.abs(s_s - edge) <= e) for edge in (s_lo, s_hi))
     )
     if cover_ahead >= min_cover and back_cover < min_cover:
