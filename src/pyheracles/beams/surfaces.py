@@ -165,7 +165,8 @@ def seen_from_behind(
     meet at an inside corner (a gable wall under the boarding), their strips
     along the corner are two straight bands at an angle, and the box fitted to
     them lies on the room's side of both: it is the air in the corner, seen
-    from behind.  The room's side of each facet's plane is :func:`room_side`
+    from behind: two surfaces going on past the strips' edges.  The room's side of
+    each facet's plane is :func:`room_side`
     (``probe``, a sample of the cloud; ``depth_m``, the deepest member
     section); a facet with no room's side (a face inside the room) does not
     count.  The box is such a corner when it lies on the room's side of every
@@ -173,7 +174,10 @@ def seen_from_behind(
     parallel (``parallel_deg``, degrees), and behind each of them the cloud
     (``tree``) holds nothing within ``depth_m`` (farther than ``margin_m``
     from the plane) over more than ``max_cover`` of its length (10 cm bins):
-    the hull ends the scan.  Behind a member's face grouped with the strip of
+    the hull ends the scan; and its plane goes on past one of its edges (within
+    half a metre) over all but ``max_cover`` of its length: a surface, not a
+    member's face (two members alone in a cloud, the far one taken for the
+    room, have faces that end at their edges).  Behind a member's face grouped with the strip of
     a wall head it rests on (a plate's inner side) lies the member's own top
     or the wall's face: that box is a member fitted wrongly, not air.
     """
@@ -191,7 +195,31 @@ def seen_from_behind(
     normals = np.array([f.normal for f, _ in away]).reshape(-1, 3)
     if len(normals) < 2 or np.min(np.abs(normals @ normals[0])) >= cos_par:
         return False
-    return all(_behind_cover(tree, f, front, depth_m, margin_m) <= max_cover for f, front in away)
+    return all(
+        _behind_cover(tree, f, front, depth_m, margin_m) <= max_cover
+        and _beside_cover(tree, f, margin_m) >= 1.0 - max_cover
+        for f, front in away
+    )
+
+
+def _beside_cover(tree: cKDTree, f: StraightFacet, margin_m: float, window_m: float = 0.5) -> float:
+    """Share of a facet's length where its plane goes on past one of its edges (within
+    ``window_m``; points within ``margin_m`` of the plane, 10 cm bins)."""
+    across = np.cross(f.normal, f.axis)
+    across /= np.linalg.norm(across)
+    reach = 0.5 * f.width + margin_m + window_m
+    t = np.arange(-0.5 * f.length, 0.5 * f.length + reach, reach)
+    hits = tree.query_ball_point(f.centre + t[:, None] * f.axis, r=reach, workers=1)
+    idx = np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits] + [[]]))
+    rel = tree.data[idx.astype(np.int64)] - f.centre
+    tt, ss, hh = rel @ f.axis, rel @ across, rel @ f.normal
+    sel = (np.abs(tt) <= 0.5 * f.length) & (np.abs(hh) <= margin_m)
+    out = np.abs(ss) - 0.5 * f.width
+    sel &= (out > 2.0 * margin_m) & (out <= window_m)
+    rng = (-0.5 * f.length, 0.5 * f.length)
+    return max(
+        edge_coverage(tt[sel & (ss > 0)], rng, 0.1), edge_coverage(tt[sel & (ss < 0)], rng, 0.1)
+    )
 
 
 def _behind_cover(
