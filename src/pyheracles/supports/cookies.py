@@ -15,6 +15,7 @@ from pyheracles.supports.core import Array, Scales, SupportParams
 from pyheracles.supports.floors import foot_floor
 from pyheracles.supports.piers import (
     FOOT_FROM_M,
+    FOOT_OWN_M,
     FOOT_REACH_M,
     FOOT_TO_M,
     MAX_NARROW_LAYERS,
@@ -306,15 +307,17 @@ def extract_support(
         )
         feet = foot_levels(cpts[:, 2], floor_z, ftol)
         own_top = float(cpts[:, 2].max()) if np.isfinite(top_z) else None
+        span = (floor_z, float(cpts[:, 2].max()))
         if (
             sh["class"] == "pier"
             and not sh.get("respond", False)
             and (
                 share > MAX_ATTACHED_SHARE
                 or wall_piece_in_bands(p, pts, rho, sh, sc, h_sec, feet, own_top, height_band)
+                or walled_in_bands(p, pts, rho, sh, sc, h_sec, span, height_band)
             )
-        ):  # joined to a wall in most layers, or the wall runs on from its foot or over
-            # the lintels beside it: a wall piece between openings
+        ):  # joined to a wall in most layers, or the wall runs on from its foot, over
+            # the lintels beside it or in bands of its height: a wall piece
             sh["wall_edge"] = True
             return None
         if sh["class"] == "column" and share > MAX_ATTACHED_SHARE:
@@ -418,10 +421,6 @@ def offset(xy: Array, sh: dict) -> tuple[Array, Array]:
     return np.maximum(np.abs(u) - a, np.abs(v) - b), np.arctan2(v / b, u / a)
 
 
-#: Foot points this close to a pier candidate's outline are its own (plinth, base), metres.
-FOOT_OWN_M = 0.15
-
-
 def wall_piece_in_bands(
     p: Array,
     pts: Array,
@@ -469,6 +468,75 @@ def wall_piece_in_bands(
     return any(walled_at_both_ends(lines + upper, axis) for lines in foot_lines or [[]])
 
 
+#: Height bands of a pier candidate in which wall faces on faces it shows run on beyond
+#: both of its ends (:func:`walled_band_count`) that make it a piece of a wall.
+MIN_WALLED_BANDS = 2
+#: The bands of :func:`walled_band_count` overlap by half: one starts this much higher
+#: than the last (metres), at least; at most :data:`MAX_BANDS` bands per candidate.
+BAND_STEP_M = 0.5 * (FOOT_TO_M - FOOT_FROM_M)
+MAX_BANDS = 40
+
+
+def walled_in_bands(
+    p: Array,
+    pts: Array,
+    rho: Array,
+    sh: dict,
+    sc: Scales,
+    h_sec: float,
+    span: tuple[float, float],
+    height_band: Callable[[float, float], NDArray[np.intp]] | None,
+) -> bool:
+    """Whether a pier candidate is a piece of a wall by the bands of its height
+    (:func:`walled_band_count`): in :data:`MIN_WALLED_BANDS` of them the wall runs on
+    beyond both of its ends (or round a corner).  A wall running on beyond one end
+    only is an anta's or a respond's."""
+    return walled_band_count(p, pts, rho, sh, sc, h_sec, span, height_band) >= MIN_WALLED_BANDS
+
+
+def walled_band_count(
+    p: Array,
+    pts: Array,
+    rho: Array,
+    sh: dict,
+    sc: Scales,
+    h_sec: float,
+    span: tuple[float, float],
+    height_band: Callable[[float, float], NDArray[np.intp]] | None,
+) -> int:
+    """Number of height bands of a pier candidate, from its floor to its own top
+    (``span``), in which wall faces flush with faces it shows run on from its ends
+    (``from_end`` of :func:`band_wall_lines`) beyond both of them (or two of them, 45
+    degrees apart, beyond one end each: a corner;
+    :func:`~pyheracles.supports.piers.walled_piece` of the shown faces).
+
+    A piece of a wall is one with the wall over part of its height: below the sills of
+    the windows beside it, above their lintels, or, in a ruin, up to the broken tops of
+    the wall's lower pieces on either side.  Where that is, the section does not say,
+    and one band at its foot hinges on where the floor and its own lowest points were
+    seen (supports draw 15: the ground outside a 0.6 m podium, the podium's side joined
+    to it by the noise).  Bands of ``FOOT_TO_M - FOOT_FROM_M`` every
+    :data:`BAND_STEP_M` over its whole height each say whether the wall runs on; a
+    free pier has none (a respond's back is flush with its wall but is no face it
+    shows; a fence runs on its axis, a bench is in one band at most).
+    """
+    lo, hi = span[0] + FOOT_FROM_M, span[1] - UPPER_TO_M
+    height = FOOT_TO_M - FOOT_FROM_M
+    if hi - lo < height:
+        return 0
+    step = max(BAND_STEP_M, (hi - lo - height) / (MAX_BANDS - 1))
+    cell = max(0.05, 3.0 * sc.spacing)
+    n_layers = max(1, int(np.ceil(height / cell)))
+    both = 0
+    for z0 in np.arange(lo, hi - height + 1e-9, step):  # at most MAX_BANDS bands
+        lines = band_wall_lines(
+            p, pts, rho, sh, sc, h_sec, (float(z0), float(z0) + height), height_band, n_layers,
+            from_end=True,
+        )  # fmt: skip
+        both += walled_piece([line for line in lines if line[2]])
+    return both
+
+
 def band_wall_lines(
     p: Array,
     pts: Array,
@@ -479,6 +547,7 @@ def band_wall_lines(
     z_band: tuple[float, float],
     height_band: Callable[[float, float], NDArray[np.intp]] | None,
     n_layers: int | None = None,
+    from_end: bool = False,
 ) -> list[WallLine]:
     """The wall faces flush with a pier candidate's faces in the height band ``z_band``
     and the ends they run on beyond (:func:`~pyheracles.supports.piers.flush_wall_ends`),
@@ -502,7 +571,9 @@ def band_wall_lines(
         n_layers = max(1, int(np.ceil((z_band[1] - z_band[0]) / cell)))
     rng = np.random.default_rng(0)
     c = sh["centre"]
-    return flush_wall_ends(q[:, :2] - c, layer, pts[own, :2] - c, sc.tol, cell, rng, n_layers)
+    return flush_wall_ends(
+        q[:, :2] - c, layer, pts[own, :2] - c, sc.tol, cell, rng, n_layers, from_end
+    )
 
 
 def own_section(rho: Array, z: Array, h_sec: float, sc: Scales) -> NDArray[np.bool_]:

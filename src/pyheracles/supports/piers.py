@@ -217,6 +217,8 @@ FOOT_FROM_M = 0.1
 FOOT_TO_M = 0.5
 #: The wall beside a wall piece's foot is looked for this far beyond its outline, metres.
 FOOT_REACH_M = 1.5
+#: Foot points this close to a pier candidate's outline are its own (plinth, base), metres.
+FOOT_OWN_M = 0.15
 #: A wall face runs on beside a wall piece's foot over at least this length, metres.
 FOOT_COVER_M = 0.3
 #: The wall above the lintels of the openings beside a wall piece is looked for in the
@@ -276,6 +278,7 @@ def flush_wall_ends(
     cell: float,
     rng: np.random.Generator,
     n_layers: int,
+    from_end: bool = False,
 ) -> list[WallLine]:
     """The wall faces flush with a face of a pier candidate in a height band, and the
     ends of the candidate they run on beyond.
@@ -293,6 +296,11 @@ def flush_wall_ends(
         Random generator of the line search.
     n_layers
         Height layers in the band.
+    from_end
+        The face must run on from the candidate's end itself: all but one of the bins of
+        the first :data:`FOOT_COVER_M` beyond it hold points (the wall is one with the
+        candidate there, not a neighbour across an opening or a gap in a row of piers;
+        the points within :data:`FOOT_OWN_M` of its outline are its own and left out).
 
     Returns
     -------
@@ -307,6 +315,7 @@ def flush_wall_ends(
     if len(foot_xy) < 20 or len(own_xy) < 10:
         return []
     need = max(2, int(np.ceil(FOOT_COVER_M / cell)))
+    near_end = int(np.ceil((FOOT_OWN_M + FOOT_COVER_M) / cell)) + 1
     out: list[WallLine] = []
     for d, off, inl in face_lines(foot_xy, tol, rng, n_lines=3):
         nrm = np.array([-d[1], d[0]])
@@ -328,8 +337,11 @@ def flush_wall_ends(
         key = (foot_layer[inl][beyond] * 2 + end[beyond]) * 100_000 + np.floor(
             dist[beyond] / cell
         ).astype(np.int64)
-        ids, counts = np.unique(np.unique(key) // 100_000, return_counts=True)
-        full = ids[counts >= need]  # (layer, end) pairs with the wall face covered
+        keys = np.unique(key)
+        if from_end:  # only the bins next to the end count, all but one of them needed
+            keys = keys[keys % 100_000 < near_end]
+        ids, counts = np.unique(keys // 100_000, return_counts=True)
+        full = ids[counts >= (need - 1 if from_end else need)]  # (layer, end) covered
         walled = [np.count_nonzero(full % 2 == e) >= 0.5 * n_layers for e in (0, 1)]
         if any(walled):
             out.append((d, (walled[0], walled[1]), bool(shown)))
