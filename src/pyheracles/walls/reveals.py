@@ -17,7 +17,16 @@ import numpy as np
 
 from pyheracles.walls.model import Array
 
-__all__ = ["RevealParams", "fill_edges", "pane_mask", "reveal_edges", "reveal_peak", "soffit_head"]
+__all__ = [
+    "RevealParams",
+    "fill_edges",
+    "glass_sill",
+    "pane_mask",
+    "reveal_edges",
+    "reveal_peak",
+    "soffit_head",
+    "splayed_share",
+]
 
 
 @dataclass(frozen=True)
@@ -61,6 +70,20 @@ class RevealParams:
         the median depth of the points in the opening's middle, and for a door of each
         depth within ``fill_m`` (0.1 m: a leaf 5-8 cm thick) of it where ``fill_share``
         (0.1) of them lie (see :func:`pane_mask`).
+    sill_points
+        Fewest points of a sill's splayed part, seen under the glass over the middle
+        half of the opening's width, from which :func:`glass_sill` puts the sill at the
+        glass's lowest returns (3, lower than them by more than ``bin_m``: a sill's
+        straight part, seen from above, is level with them).
+    splay_share, splay_band_m
+        Least share (0.1) of an opening's lining at its jambs, up to ``splay_band_m``
+        (0.1 m) outside them, standing outside them for its reveals to be splayed
+        (:func:`splayed_share`).
+    sill_gap_m
+        The highest of those points stands at most this far below the glass's lowest
+        returns (0.1 m): the splay seen up to the glass, whose foot the same scanners
+        see over it; a far scan seeing the splay's lower part only and the glass 15 cm
+        above the sill (church draw 4's south wall) does not put the sill there.
     """
 
     bin_m: float = 0.01
@@ -75,6 +98,10 @@ class RevealParams:
     pane_m: float = 0.03
     fill_share: float = 0.1
     fill_m: float = 0.1
+    sill_points: int = 3
+    sill_gap_m: float = 0.1
+    splay_share: float = 0.1
+    splay_band_m: float = 0.1
 
 
 def reveal_peak(v: Array, lo: float, hi: float, p: RevealParams,
@@ -247,3 +274,66 @@ def soffit_head(uz: Array, depth: Array, u0: float, u1: float, z1: float, c: flo
     np.maximum.at(top, k, uz[sel, 1])
     ok = n >= min_points
     return float(top[ok].min()) if ok.any() else float("nan")
+
+
+def glass_sill(uz: Array, depth: Array, hole: tuple[float, float, float, float],
+               jambs: tuple[float, float], p: RevealParams | None = None) -> float:  # fmt: skip
+    """Sill of a window from the points between the wall's faces at full resolution
+    (``uz`` on the wall plane, ``depth`` across it): the glass's lowest returns (the
+    second lowest point of the grid's ``hole`` ``(u0, u1, z0, z1)``, lower half, within
+    ``pane_m`` of the fill's depth, :func:`pane_mask`) where its reveals are splayed
+    (:func:`splayed_share` of the lining outside the opening's ``jambs`` at least
+    ``splay_share``) and the sill's splay is seen under the glass (``sill_points``
+    points more than ``bin_m`` and up to ``inward_m`` below its lowest returns, over
+    the middle half of the width, not the glass, the highest within ``sill_gap_m``);
+    NaN otherwise.
+
+    The glass stands on the sill.  A sill's straight part, from a face to the glass,
+    faces up and is out of sight from below; a splayed part falls from the glass to
+    the other face, and a scanner below sees it when its rays rise less steeply than
+    it falls, the same rays that reach the foot of the glass over its inner edge: where
+    the splay is seen, so is the glass down to the sill (church draws 1, 4 and 12: the
+    sills of splayed faces' holes and of faces 15-18 cm between points 3-27 cm low, the
+    glass's lowest returns within 2 cm of the sills).  Where the reveals are straight,
+    the glass's foot is out of sight from below on both sides, and mixed pixels of
+    rays grazing a sill's edge on their way to the glass stand under its lowest
+    returns as a splay would (church draw 2: glass seen from 12 cm over the sill).
+    """
+    p = p or RevealParams()
+    nan = float("nan")
+    u0, u1, z0, z1 = hole
+    zc = 0.5 * (z0 + z1)
+    box = (uz[:, 0] > u0 - p.inward_m) & (uz[:, 0] < u1 + p.inward_m)
+    box &= (uz[:, 1] > z0 - p.inward_m) & (uz[:, 1] < z1)
+    q, dq = uz[box], depth[box]
+    if len(q) < p.fill_points:
+        return nan
+    off = pane_mask(q, dq, u0, u1, z0, z1, p)
+    inside = (q[:, 0] > u0) & (q[:, 0] < u1) & (q[:, 1] < zc)
+    glass = np.sort(q[~off & inside, 1])
+    if len(glass) < p.fill_points:
+        return nan
+    low = float(glass[1])
+    rows = off & (q[:, 1] > z0 + 0.25 * (z1 - z0)) & (q[:, 1] < zc)
+    if splayed_share(q[rows, 0], jambs, p) < p.splay_share:
+        return nan
+    mid = np.abs(q[:, 0] - 0.5 * (u0 + u1)) < 0.25 * (u1 - u0)
+    under = off & mid & (q[:, 1] < low - p.bin_m) & (q[:, 1] > low - p.inward_m)
+    if np.count_nonzero(under) < p.sill_points or q[under, 1].max() < low - p.sill_gap_m:
+        return nan
+    return low
+
+
+def splayed_share(u: Array, jambs: tuple[float, float], p: RevealParams) -> float:
+    """Share of the points ``u`` (m, along the wall) of an opening's lining at the
+    heights of its jambs, from ``pane_m`` inside a jamb (``jambs``: the opening's, at
+    its narrowest section) to ``splay_band_m`` outside it, that stand more than
+    ``pane_m`` outside it (0 where none): a splayed reveal widens from the narrowest
+    section to its face, its points spread outside the opening; a straight one stands
+    at it, and the next light's jamb across a mullion stands farther out (church
+    draw 2: none of 2600 points of straight reveals, some across mullions 0.2 m wide;
+    draws 1, 4 and 12's splayed windows, a sixth to a half)."""
+    out = np.r_[jambs[0] - u, u - jambs[1]]
+    near = (out > -p.pane_m) & (out <= p.splay_band_m)
+    n = np.count_nonzero(near)
+    return float(np.count_nonzero(near & (out > p.pane_m))) / n if n else 0.0
