@@ -228,6 +228,14 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                     # (a pointed apex closed): the soffit's top at full resolution
                     apex = soffit_head(*between, u0, u1, z1, c)
                     z1 = apex if np.isfinite(apex) and apex > z1 else z1
+                    # (a splayed face's hole, the other face's too sparse to close it):
+                    # the soffit's narrowest section, searched from a splay under it, and
+                    # no lower than the glass's highest returns (a depth holding only
+                    # glass, its top not seen, is no soffit)
+                    low = soffit_head(*between, u0, u1, z1, c, below_m=RevealParams().inward_m)
+                    glass_top = fill_edges(uz_all[box], depth[box], *grid)[3]  # type: ignore[index]
+                    low = max(low, glass_top) if np.isfinite(glass_top) else low
+                    z1 = low if np.isfinite(low) and low < z1 else z1
                 if not on_floor:  # the edges the reveals did not see, of a splayed face
                     u0, u1, z0, z1 = splayed_in((u0, u1, z0, z1), src, *table,
                                                 np.asarray(found), took, c)  # fmt: skip

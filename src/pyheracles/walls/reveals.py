@@ -247,13 +247,14 @@ def fill_edges(uz: Array, depth: Array, u0: float, u1: float, z0: float, z1: flo
 
 
 def soffit_head(uz: Array, depth: Array, u0: float, u1: float, z1: float, c: float,
-                bin_m: float = 0.05, min_points: int = 3) -> float:  # fmt: skip
+                bin_m: float = 0.05, min_points: int = 3,
+                below_m: float | None = None) -> float:  # fmt: skip
     """Head of an opening ``u0``-``u1`` whose grid head is ``z1`` (cell ``c``) from the
     points between the wall's faces at full resolution (``uz`` on the wall plane,
     ``depth`` across it): the least over the depths (``bin_m`` bins holding at least
     ``min_points``) of their highest point over the opening's centre (a tenth of its
-    width, at least a cell), up to four cells above ``z1``; NaN when no depth holds
-    enough.
+    width, at least a cell), from ``below_m`` under ``z1`` (default a cell) up to four
+    cells above it; NaN when no depth holds enough.
 
     Nothing stands between the faces above the head but the wall: the soffit, the glass
     and its cames reach up to the head and no higher, and a splayed soffit rises from the
@@ -261,10 +262,14 @@ def soffit_head(uz: Array, depth: Array, u0: float, u1: float, z1: float, c: flo
     apex of a pointed head is a narrow wedge that the grid closes, 6-13 cm of it, and a
     sparse face has no point within reach of it (church draws 17 and 18: heads short with
     the soffit seen up to the apex, but thinned to one point per 6 cm in the detection
-    sample that the reveals are read from).
+    sample that the reveals are read from).  A grid's head over the opening, a splayed
+    face's hole with the other face's too sparse to close it, has only the splayed
+    soffit over it, rising to its face: searched from a splay under it (``below_m``),
+    the least is the narrowest section's (church draw 4: heads 8-17 cm high).
     """
     uc, half = 0.5 * (u0 + u1), max(0.05 * (u1 - u0), c)
-    sel = (np.abs(uz[:, 0] - uc) < half) & (uz[:, 1] > z1 - c) & (uz[:, 1] <= z1 + 4 * c)
+    below = c if below_m is None else below_m
+    sel = (np.abs(uz[:, 0] - uc) < half) & (uz[:, 1] > z1 - below) & (uz[:, 1] <= z1 + 4 * c)
     if np.count_nonzero(sel) < min_points:
         return float("nan")
     k = np.floor(depth[sel] / bin_m).astype(np.int64)
