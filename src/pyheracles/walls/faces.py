@@ -8,7 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, WallParams
-from pyheracles.walls.planes import fit_vertical, grid_components, plane_frame
+from pyheracles.walls.openings import face_spacing
+from pyheracles.walls.planes import bridge_runs, fit_vertical, grid_components, plane_frame
 
 __all__ = ["face_points", "find_faces"]
 
@@ -148,11 +149,13 @@ def face_points(
     res = np.abs(xyz[idx] @ n - d)
     seed_rms = float(np.sqrt(np.mean((xyz[seeds] @ n - d) ** 2)))
     on_plane = res <= max(3.0 * seed_rms, 0.005)  # not reveals' or mixed pixels' returns
-    return idx[own | (on_plane & _strips(pij, grid, on_plane))]
+    # a strip's run bridges gaps of up to run_gap_spacings of the face's spacing
+    gap = int(np.ceil(p.run_gap_spacings * face_spacing(uz[on_plane]) / cell))
+    return idx[own | (on_plane & _strips(pij, grid, on_plane, gap))]
 
 
-def _strips(pij: NDArray[np.int64], grid: NDArray[np.bool_],
-            on_plane: NDArray[np.bool_]) -> NDArray[np.bool_]:  # fmt: skip
+def _strips(pij: NDArray[np.int64], grid: NDArray[np.bool_], on_plane: NDArray[np.bool_],
+            gap: int = 0) -> NDArray[np.bool_]:  # fmt: skip
     """Points in the holes of a face's footprint ``grid`` (cells ``pij``) that are face
     too: mullions and transoms, from the points ``on_plane`` (within three RMS of it:
     the returns of reveals near the plane and mixed pixels spread across the band).
@@ -161,7 +164,10 @@ def _strips(pij: NDArray[np.int64], grid: NDArray[np.bool_],
     neighbourhood, seeds nothing, and its points lie in a hole of the footprint.  A run
     of points across a hole, touching the footprint at both ends (sill and head, or
     both jambs), is such a strip; returns of the reveals near the plane, along one
-    edge of the hole, touch it along one stretch only and are left out.
+    edge of the hole, touch it along one stretch only and are left out.  The run is
+    followed across gaps of up to ``gap`` cells along it, open on both sides
+    (:func:`~pyheracles.walls.planes.bridge_runs`): a sparse face's strip is a column of
+    points a spacing apart, and a mixed pixel or two at its edge break it.
     """
     from scipy import ndimage
 
@@ -173,7 +179,9 @@ def _strips(pij: NDArray[np.int64], grid: NDArray[np.bool_],
     occ = np.zeros(grid.shape, dtype=bool)
     occ[pij[cand, 0], pij[cand, 1]] = True
     eight = np.ones((3, 3), dtype=bool)
-    lab, _ = ndimage.label(ndimage.binary_closing(occ, eight) & holes, structure=eight)
+    run = ndimage.binary_closing(occ, eight) & holes
+    run |= bridge_runs(run | grid, gap) & holes
+    lab, _ = ndimage.label(run, structure=eight)
     plab = lab[pij[:, 0], pij[:, 1]]
     for c, sl in enumerate(ndimage.find_objects(lab), start=1):
         if sl is None:

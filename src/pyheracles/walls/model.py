@@ -73,6 +73,11 @@ class WallParams:
         mullions or transoms up to this width are one opening (the wall's void that
         a window with its tracery fills in a BIM model); 0 (the default) keeps each
         light an opening of its own, as the stone between them is wall.
+    run_gap_spacings
+        A thin run of a face's points across an opening (a mullion's column, a
+        transom's row) is followed across gaps of up to this many of the face's point
+        spacings (4: three returns in a row lost to mixed pixels at the strip's
+        edges, or scanned off it).
     snap_m
         Largest move of a wall end to a plane intersection (1.0 m).
     assumed_thickness_m
@@ -96,6 +101,7 @@ class WallParams:
     door_step_m: float = 0.2
     max_floor_rise_m: float = 1.5
     max_mullion_m: float = 0.0
+    run_gap_spacings: float = 4.0
     snap_m: float = 1.0
     assumed_thickness_m: float = 0.3
 
@@ -121,6 +127,8 @@ class WallParams:
             raise ValueError(f"door_step_m must be >= 0, got {self.door_step_m!r}")
         if not (math.isfinite(self.max_mullion_m) and self.max_mullion_m >= 0):
             raise ValueError(f"max_mullion_m must be >= 0, got {self.max_mullion_m!r}")
+        if not (math.isfinite(self.run_gap_spacings) and self.run_gap_spacings >= 0):
+            raise ValueError(f"run_gap_spacings must be >= 0, got {self.run_gap_spacings!r}")
 
 
 @dataclass(frozen=True)

@@ -58,6 +58,55 @@ def plane_frame(n: Array, d: float) -> tuple[Array, Array]:
     return origin, u
 
 
+def bridge_runs(occ: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:
+    """Empty cells of a grid ``occ`` that bridge a gap of up to ``n`` cells along a thin
+    run of covered cells: a mullion's column (along axis 1) or a transom's row (along
+    axis 0) broken where a few of its points are missing.
+
+    A cell is such a bridge when covered cells stand on both sides of it along one
+    axis within ``n`` cells (a closing with a line of ``n + 1`` cells), and the bridged
+    cells across it, along the other axis, are at most ``n`` and open (not covered) on
+    both sides: the gap is a passage between two holes.  A hole shorter than ``n``
+    between covered cells all across it (a small window between its sill and head)
+    is bounded across too, and stays open.
+    """
+    from scipy import ndimage
+
+    out = np.zeros(occ.shape, dtype=bool)
+    if n < 1 or not occ.any():
+        return out
+    for axis in (1, 0):  # bridges along axis 1 (columns), then along axis 0 (rows)
+        line = np.ones((1, n + 1) if axis == 1 else (n + 1, 1), dtype=bool)
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (n + 1, n + 1)  # no closing against the grid's border
+        closed = ndimage.binary_closing(np.pad(occ, pad), structure=line)
+        gap = closed[n + 1 : -(n + 1), :] if axis == 0 else closed[:, n + 1 : -(n + 1)]
+        out |= _open_across(gap & ~occ, occ, 1 - axis, n)
+    return out
+
+
+def _open_across(gap: NDArray[np.bool_], occ: NDArray[np.bool_], axis: int,
+                 n: int) -> NDArray[np.bool_]:  # fmt: skip
+    """Cells of ``gap`` whose run of ``gap`` cells along ``axis`` is at most ``n`` long
+    and open (not in ``occ``, nor past the grid's border) at both of its ends."""
+    g = np.moveaxis(gap, axis, 0)
+    o = np.moveaxis(occ, axis, 0)
+    m = g.shape[0]
+    idx = np.arange(m)[:, None]
+    prev = np.zeros_like(g)
+    prev[1:] = g[:-1]
+    nxt = np.zeros_like(g)
+    nxt[:-1] = g[1:]
+    start = np.maximum.accumulate(np.where(g & ~prev, idx, -1), axis=0)
+    stop = np.minimum.accumulate(np.where(g & ~nxt, idx, m)[::-1], axis=0)[::-1]
+    cols = np.arange(g.shape[1])[None, :]
+    before, after = start - 1, stop + 1
+    open_before = (before >= 0) & ~o[np.clip(before, 0, m - 1), cols]
+    open_after = (after < m) & ~o[np.clip(after, 0, m - 1), cols]
+    keep = g & open_before & open_after & (stop - start + 1 <= n)
+    return np.moveaxis(keep, 0, axis)
+
+
 def grid_components(mask: NDArray[np.bool_], grow: int) -> tuple[NDArray[np.int32], int]:
     from scipy import ndimage
 
