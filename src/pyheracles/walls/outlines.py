@@ -13,6 +13,7 @@ from pyheracles.walls.openings import (
     pick_edges,
     splay_in,
 )
+from pyheracles.walls.planes import bridge_mullions
 from pyheracles.walls.reveals import (
     RevealParams,
     fill_edges,
@@ -36,7 +37,8 @@ __all__ = [
 
 
 def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
-              face_of: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:  # fmt: skip
+              face_of: NDArray[np.int64] | None = None, gap: int = 0,
+              hole: int = 1) -> NDArray[np.bool_]:  # fmt: skip
     """Cells of the wall plane covered by its faces, small gaps closed.
 
     A cell is covered when it holds a face point.  Each face (``face_of``; one face
@@ -47,7 +49,11 @@ def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
     covered cells around (0.3 m) hold two points or more on average, two cells where
     they hold fewer (a grazing or distant scan whose lines are a cell or more apart).
     Openings are at least a few cells across and stay open.  The wall is covered where
-    any of its faces is.
+    any of its faces is, and across the gaps of up to ``gap`` cells in a mullion's
+    column between holes at least ``hole`` cells across
+    (:func:`~pyheracles.walls.planes.bridge_mullions`): a mullion seen by a scan
+    column or two of a sparse face is broken where a mixed pixel or two at its edges
+    leave a gap of two or three spacings in each, and the lights joined there.
     """
     from scipy import ndimage
 
@@ -66,7 +72,7 @@ def occupancy(ij: NDArray[np.int64], shape: tuple[int, ...],
         one = ndimage.binary_closing(occ, structure=square, iterations=1, border_value=0)
         two = ndimage.binary_closing(occ, structure=square, iterations=2, border_value=0)
         out |= occ | np.where(sparse, two, one)
-    return out
+    return out | bridge_mullions(out, gap, hole)
 
 
 def dense_cells(ij: NDArray[np.int64], shape: tuple[int, ...], share: float = 0.25,
@@ -129,7 +135,11 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     lo = w_uz.min(axis=0)
     ij = np.floor((w_uz - lo) / c).astype(np.int64)
     shape = tuple(ij.max(axis=0) + 1)
-    occ = occupancy(ij, shape, face_of)
+    # a mullion's column is followed across gaps of run_gap_spacings of the sparsest
+    # face's spacing, between holes an opening wide
+    spacing = max(face_spacing(w_uz[face_of == f]) for f in np.unique(face_of))
+    occ = occupancy(ij, shape, face_of, int(np.ceil(p.run_gap_spacings * spacing / c)),
+                    int(np.ceil(p.min_opening_m / c)))  # fmt: skip
     cols = np.flatnonzero(occ.any(axis=1))
     nu = shape[0]
     dense = [dense_cells(ij[face_of == f], shape) for f in np.unique(face_of)]
