@@ -45,3 +45,17 @@ def test_scan_columns_of_a_sparse_face_are_no_mullion() -> None:
     occ[1:20:3, :] = False  # the face left of it: columns 2 cells wide, 1 apart
     occ[0:20, 30:35] = False  # a stretch no column returned
     assert not bridge_mullions(occ, 8, 5)[:20].any()
+
+
+def test_returns_along_both_jambs_make_no_transom() -> None:
+    """A light 14 cells wide with the reveals' returns standing 2 cells out from both
+    jambs over 3 rows (the gap between them 10 cells, within the 12 allowed): a run is
+    followed up columns only, and no transom joins them (church draw 10: a window
+    split across, 1.28 m short, with rows bridged too)."""
+    from pyheracles.walls.planes import bridge_runs
+
+    occ = np.ones((40, 60), dtype=bool)
+    occ[10:24, 10:50] = False
+    occ[10:12, 30:33] = True
+    occ[22:24, 30:33] = True
+    assert not bridge_runs(occ, 12)[10:24].any()
