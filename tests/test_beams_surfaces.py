@@ -188,6 +188,13 @@ def test_cloud_of_floor_only_is_a_clear_error():
         segment_beams(floor)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "on the per-ray simulator's noise draw (issue 12/13 open): three spurious "
+        "boarding boxes, not at most two"
+    ),
+)
 @pytest.mark.slow
 def test_attic_draw_with_boarding_common_rafters_and_stored_timber():
     """The draw that showed boarding strips, chained rafters and stored timber as beams."""
