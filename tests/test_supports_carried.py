@@ -125,10 +125,16 @@ def test_wall_between_windows_on_a_podium_is_no_pier_on_draw_15() -> None:
     lowest points (the podium's side joined to it) put the foot band at 0.25-0.35 m, in
     the podium's side; over the bands of its whole height the wall runs on beyond both
     of its ends in 14 (:func:`~pyheracles.supports.cookies.walled_in_bands`)."""
+    assert_no_support_is_a_wall(15, 9)
+
+
+def assert_no_support_is_a_wall(seed: int, n_supports: int) -> None:
+    """Step 2a on supports draw ``seed``: no support found is mostly wall points, and
+    ``n_supports`` are found (also used by ``test_supports_wall_bands`` on rescans)."""
     from pyheracles.building import segment_building
     from pyheracles.synthetic.families import simulate
 
-    sim = simulate("supports", 15)
+    sim = simulate("supports", seed)
     res = sim.clouds["cloud"]
     _, found, _, _ = segment_building(res.xyz)
     wall_code = {v: k for k, v in sim.scene.class_names.items()}["wall"]
@@ -136,7 +142,7 @@ def test_wall_between_windows_on_a_podium_is_no_pier_on_draw_15() -> None:
     for k in found.objects["instance"]:
         mine = ok & (found.instance == k)
         assert np.mean(res.class_id[mine] == wall_code) < 0.5, f"support {k} is a wall"
-    assert len(found.objects) == 9
+    assert len(found.objects) == n_supports
 
 
 def _tub_sides(centre, z: float, step: float) -> np.ndarray:

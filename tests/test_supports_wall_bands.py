@@ -21,6 +21,7 @@ from pyheracles.supports.cookies import (
     walled_in_bands,
 )
 from pyheracles.supports.core import SupportParams, scales
+from test_supports_carried import assert_no_support_is_a_wall
 
 STEP = 0.03  # point spacing of the synthetic faces, metres
 SEEDS = range(8)  # noise draws of each scene
@@ -145,8 +146,6 @@ def test_draw_15_wall_between_windows_is_no_pier_for_any_noise_draw(
     them the wall between two windows (on the draw's own noise and on scan seed 3 the old
     foot band found no wall there)."""
     import pyheracles.synthetic.families.supports as family
-    from pyheracles.building import segment_building
-    from pyheracles.synthetic.families import simulate
 
     real_scan = family.scan
     monkeypatch.setattr(
@@ -154,12 +153,4 @@ def test_draw_15_wall_between_windows_is_no_pier_for_any_noise_draw(
             scene, acq, outliers=outliers, rng=scan_seed
         ),
     )  # fmt: skip
-    sim = simulate("supports", 15)
-    res = sim.clouds["cloud"]
-    _, found, _, _ = segment_building(res.xyz)
-    wall_code = {v: k for k, v in sim.scene.class_names.items()}["wall"]
-    ok = ~res.outlier
-    for k in found.objects["instance"]:
-        mine = ok & (found.instance == k)
-        assert np.mean(res.class_id[mine] == wall_code) < 0.5, f"support {k} is a wall"
-    assert len(found.objects) == 9
+    assert_no_support_is_a_wall(15, 9)
