@@ -547,10 +547,12 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     # only the beams that passed the previous glass face are tested at the next one: a
     # beam that did not pass returns from that face (it is not re-drawn)
     active = np.ones(len(flat), bool)
+    rays = ray_ids(ia, ie)
     for layer in range(4):
         tr = caster.transmittance[prim]
-        u = ray_uniform(key, ray_ids(ia, ie), _GLASS_STREAM + layer)
-        go = np.flatnonzero(active & (tr > 0) & (u < tr))
+        on_glass = np.flatnonzero(active & (tr > 0))  # only these beams draw a number
+        u = ray_uniform(key, rays[on_glass], _GLASS_STREAM + layer)
+        go = on_glass[u < tr[on_glass]]
         active = np.zeros(len(prim), bool)
         active[go] = True
         if len(go) == 0:
@@ -564,8 +566,8 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
         Rf, Pf = R.reshape(-1), P.reshape(-1)
         Rf[flat[~sel]] = np.inf
         Pf[flat[~sel]] = -1
-        flat, ia, ie, d, prim, r, through, active = (
-            x[sel] for x in (flat, ia, ie, d, prim, r, through, active)
+        flat, ia, ie, d, prim, r, through, active, rays = (
+            x[sel] for x in (flat, ia, ie, d, prim, r, through, active, rays)
         )
         Rf[flat] = r
         Pf[flat] = prim
@@ -573,7 +575,6 @@ def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[st
     ok = (r >= st.range_m[0]) & (r <= st.range_m[1])
     ok &= cosi >= np.sin(np.deg2rad(st.grazing_limit_deg))
     signal = caster.reflectance[prim] * cosi * (10.0 / np.maximum(r, 0.1)) ** 2
-    rays = ray_ids(ia, ie)
     ok &= ray_uniform(key, rays, _DETECT_STREAM) < 1 - np.exp(-signal / st.detection)
     # mixed pixels: a beam at a depth edge between two different surfaces of the grid;
     # only the few candidate edges (a range jump or sky beside) are examined further
