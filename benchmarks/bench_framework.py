@@ -5,8 +5,9 @@ Run: ``python benchmarks/bench_framework.py [--quick]`` (one JSON line per measu
 on 100 k and 1 M points, and ``heracles beams`` end to end on them as LAZ files), or
 ``python benchmarks/bench_framework.py --seeds`` for the robustness sweep alone (the three
 roof configurations over generator seeds 0-9, one JSON line per roof and a summary per
-configuration), or ``python benchmarks/bench_framework.py --sweep N [--first-seed S]``
-for the sweep over the ``roof`` scene family (draws S..S+N-1, see :func:`sweep`), and
+configuration), or ``python benchmarks/bench_framework.py --sweep N [--first-seed S]
+[--noise-draw K]`` for the sweep over the ``roof`` scene family (draws S..S+N-1, see
+:func:`sweep`; K > 0 rescans each draw's scene with other noise), and
 ``python benchmarks/bench_framework.py --summarize A.jsonl B.jsonl`` for the summary of a
 sweep run in parts (the draw lines of the files, then their summary line).
 
@@ -70,6 +71,9 @@ def _option(name: str, default: int | None) -> int | None:
 
 SWEEP = _option("--sweep", None)
 FIRST_SEED = _option("--first-seed", 0)
+#: ``--noise-draw K``: every draw of the sweep rescanned with its K-th other noise
+#: (the family's ``noise_draw``; 0 = the draws' own scans, the baselines').
+NOISE_DRAW = _option("--noise-draw", 0) or 0
 
 #: The roof configurations of the accuracy benchmark: name, generator parameters, seed.
 ROOF_CONFIGS = [
@@ -865,7 +869,7 @@ def sweep(n: int, first: int = 0) -> None:
     t_gen_total = 0.0
     for seed in range(first, first + n):
         t0 = time.perf_counter()
-        sim = simulate("roof", seed)
+        sim = simulate("roof", seed, noise_draw=NOISE_DRAW)
         t_gen = time.perf_counter() - t0
         t_gen_total += t_gen
         res = sim.clouds["cloud"]
@@ -921,6 +925,7 @@ def sweep(n: int, first: int = 0) -> None:
             metric="beams_family_draw",
             value=s["median_f1"],
             seed=seed,
+            noise_draw=NOISE_DRAW,
             **key,
             **spacing,
             **s,

@@ -78,7 +78,7 @@ def visible_faces(tw: dict, xyz: np.ndarray, inst: np.ndarray, part: np.ndarray,
     return out
 
 
-def church(seed: int) -> dict:
+def church(seed: int, noise_draw: int = 0) -> dict:
     """Walls of one church draw against the simulator's truth.
 
     A true wall is found when every face the scanners saw (:func:`visible_faces`) has a
@@ -93,19 +93,20 @@ def church(seed: int) -> dict:
     """
     from pyheracles.walls import segment_walls
 
-    scene = church_scene(seed)
+    scene = church_scene(seed, noise_draw)
     t = time.perf_counter()
     r = segment_walls(scene["xyz"])
     secs = time.perf_counter() - t
-    return {"seed": seed, **score_church(r, scene), "seconds": secs}
+    return {"seed": seed, "noise_draw": noise_draw, **score_church(r, scene), "seconds": secs}
 
 
-def church_scene(seed: int) -> dict:
+def church_scene(seed: int, noise_draw: int = 0) -> dict:
     """One church draw (interior + exterior TLS) in the scene frame: ``xyz``, the
-    simulator's per-point ``instance`` and ``part``, ``objects`` and ``part_names``."""
+    simulator's per-point ``instance`` and ``part``, ``objects`` and ``part_names``
+    (``noise_draw`` > 0: the same church scanned with other noise)."""
     from pyheracles.synthetic.families import simulate
 
-    sim = simulate("church", seed, exterior_kind="tls")
+    sim = simulate("church", seed, exterior_kind="tls", noise_draw=noise_draw)
     xyz, inst, part = [], [], []
     for k, c in sim.clouds.items():
         T = sim.transforms[k]
@@ -271,6 +272,12 @@ def main() -> None:
     )
     ap.add_argument("--no-ifc", action="store_true", help="Walls only (no IFC roof check).")
     ap.add_argument(
+        "--noise-draw",
+        type=int,
+        default=0,
+        help="Rescan every draw's church with its K-th other noise (0: the draws' own scans).",
+    )
+    ap.add_argument(
         "--jsonl",
         type=Path,
         help="Also write one line per draw and a last summary line here (a baseline).",
@@ -281,7 +288,7 @@ def main() -> None:
         print(json.dumps({"ahn3_walls_roofs": ahn3_speed()}, indent=1, default=float))
         return
     seeds = range(args.first_seed, args.first_seed + args.sweep)
-    draws = [church(s) for s in seeds]
+    draws = [church(s, args.noise_draw) for s in seeds]
     worst = max(draws, key=lambda d: d["misses"])
     out: dict = {
         "church_summary": {

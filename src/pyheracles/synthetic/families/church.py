@@ -81,7 +81,12 @@ from pyheracles.synthetic.families.church_targets import (
     window_corner_table,
     write_target_files,
 )
-from pyheracles.synthetic.families.simulation import Simulation, apply_overrides
+from pyheracles.synthetic.families.simulation import (
+    Simulation,
+    apply_overrides,
+    check_noise_draw,
+    scan_generator,
+)
 from pyheracles.synthetic.scanner import Outliers, RayCaster, scan
 
 __all__ = ["RANGES", "THESIS", "ChurchFamilyParams", "draw", "draw_params"]
@@ -157,6 +162,10 @@ class ChurchFamilyParams:
         Survey sigma of the target centres (2-4 mm), manual tie pick sigma (5-15 mm).
     outlier_share
         Gross errors per cloud (0.001-0.01).
+    noise_draw
+        0 (default): the draw's own scan; k > 0: the same scene scanned again with
+        the k-th other random numbers (detection, noise, mixed pixels, outliers), to
+        check that a rule holds over the noise of a scene, not one draw of it.
     """
 
     layout: str | None = None
@@ -213,6 +222,7 @@ class ChurchFamilyParams:
     control_sigma_m: float | None = None
     pick_sigma_m: float | None = None
     outlier_share: float | None = None
+    noise_draw: int = 0
 
 
 #: Ranges drawn from: ``(low, high)`` uniform floats, ``("int", lo, hi)`` integers
@@ -339,6 +349,7 @@ def draw_params(seed: int, **overrides: Any) -> ChurchFamilyParams:
         An unknown parameter or an impossible value.
     """
     fixed = apply_overrides(ChurchFamilyParams(), overrides, "church")
+    check_noise_draw(fixed.noise_draw, "church")
     for k, allowed in _CHOICES.items():
         v = getattr(fixed, k)
         if v is not None and v not in allowed:
@@ -461,8 +472,9 @@ def draw(seed: int, **overrides: Any) -> Simulation:
         owner_ex = list(range(1, len(acq_ex) + 1))
     del caster
     clouds_scene = {}
+    g_scan = scan_generator(seed, p.noise_draw, rng, "church")
     for name, acq, owner in (("interior", acq_in, owner_in), ("exterior", acq_ex, owner_ex)):
-        res = scan(scene, acq, outliers=Outliers(share=p.outlier_share), rng=rng)
+        res = scan(scene, acq, outliers=Outliers(share=p.outlier_share), rng=g_scan)
         clouds_scene[name] = sources_by_station(res, owner)
     clouds, transforms = {}, {}
     for name, res in clouds_scene.items():

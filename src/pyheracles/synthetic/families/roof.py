@@ -71,7 +71,12 @@ from pyheracles.synthetic.families.roof_room import (
     place_stations,
 )
 from pyheracles.synthetic.families.roof_truth import FACE_MIN_POINTS, faces_seen, find_joints
-from pyheracles.synthetic.families.simulation import Simulation, apply_overrides
+from pyheracles.synthetic.families.simulation import (
+    Simulation,
+    apply_overrides,
+    check_noise_draw,
+    scan_generator,
+)
 from pyheracles.synthetic.scanner import Outliers, ScanResult, TLSStation, scan
 from pyheracles.synthetic.scene import STONE, TIMBER, Scene
 
@@ -154,6 +159,10 @@ class RoofFamilyParams:
         Range noise sigma, 2-5 mm.
     outlier_share
         Gross errors, 0.1-1 % of the points.
+    noise_draw
+        0 (default): the draw's own scan; k > 0: the same scene scanned again with
+        the k-th other random numbers (detection, noise, mixed pixels, outliers), to
+        check that a rule holds over the noise of a scene, not one draw of it.
     """
 
     layout: str = "random"
@@ -183,6 +192,7 @@ class RoofFamilyParams:
     spacing_10m_m: float | None = None
     noise_m: float | None = None
     outlier_share: float | None = None
+    noise_draw: int = 0
 
 
 def _drawn(rng: np.random.Generator) -> dict[str, Any]:
@@ -251,6 +261,7 @@ def _validate(p: RoofFamilyParams) -> None:
         "noise_m": (0.0, 0.05),
         "outlier_share": (0.0, 0.2),
     }
+    check_noise_draw(p.noise_draw, "roof")
     if p.n_points is not None:
         checks["n_points"] = (10_000, 50_000_000)
     if p.spacing_10m_m is not None:
@@ -364,9 +375,8 @@ def draw(seed: int, **overrides: Any) -> Simulation:
         )
         for s in stations
     ]
-    res = scan(
-        scene, acqs, outliers=Outliers(share=p.outlier_share), rng=np.random.default_rng([seed, 2])
-    )
+    g_scan = scan_generator(seed, p.noise_draw, np.random.default_rng([seed, 2]), "roof")
+    res = scan(scene, acqs, outliers=Outliers(share=p.outlier_share), rng=g_scan)
     _record_visibility(scene, members, res)
     joints = find_joints(members)
     params = {
@@ -503,7 +513,7 @@ def _draw_named(seed: int, p: RoofFamilyParams) -> Simulation:
     res = scan(
         scene,
         [TLSStation(tuple(s), step_deg=step, **quiet) for s in stations],
-        rng=np.random.default_rng([seed, 2]),
+        rng=scan_generator(seed, p.noise_draw, np.random.default_rng([seed, 2]), "roof"),
     )
     _record_visibility(scene, members, res)
     joints = find_joints(members)

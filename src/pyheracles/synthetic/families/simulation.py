@@ -65,6 +65,54 @@ def apply_overrides(params: Any, overrides: Mapping[str, Any], family: str) -> A
     return replace(params, **overrides)
 
 
+#: Stream tag of the scan generator of a rescan (``noise_draw`` > 0): the bytes "nois".
+NOISE_STREAM = 0x6E6F6973
+
+
+def scan_generator(
+    seed: int, noise_draw: Any, own: np.random.Generator, family: str
+) -> np.random.Generator:
+    """The generator of a draw's scan: its own, or the ``noise_draw``-th other one.
+
+    A family's ``noise_draw`` parameter rescans the same scene (geometry, stations,
+    targets) with other random numbers: detection, range noise, mixed pixels, glass,
+    matching and outliers.  A rule of the segmentation must hold over the noise draws of
+    its scene, not only over the one noise draw each scene had (the lesson of the
+    per-ray simulator: rules fitted to one draw's noise failed on another's).
+
+    Parameters
+    ----------
+    seed
+        Draw number.
+    noise_draw
+        0: the draw's own scan (``own``, the cloud the benchmarks always used); k > 0:
+        the k-th other scan of the same scene.
+    own
+        The generator the draw scans with when ``noise_draw`` is 0.
+    family
+        Family name, for the error message.
+
+    Raises
+    ------
+    InputError
+        ``noise_draw`` not a whole number >= 0.
+    """
+    check_noise_draw(noise_draw, family)
+    if noise_draw == 0:
+        return own
+    return np.random.default_rng([seed, NOISE_STREAM, int(noise_draw)])
+
+
+def check_noise_draw(noise_draw: Any, family: str) -> None:
+    """Refuse a ``noise_draw`` that is not a whole number >= 0."""
+    whole = isinstance(noise_draw, int | np.integer) and not isinstance(noise_draw, bool)
+    if not whole or noise_draw < 0:
+        raise InputError(
+            f"{family} noise_draw must be a whole number >= 0, got {noise_draw!r}",
+            hint="0 is the draw's own scan; 1, 2, ... rescan the same scene with other noise",
+        )
+
+
 def _jsonable(x: Any) -> Any:
     if isinstance(x, dict):
         return {str(k): _jsonable(v) for k, v in x.items()}

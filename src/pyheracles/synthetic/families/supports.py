@@ -63,7 +63,12 @@ import numpy as np
 import shapely
 
 from pyheracles.errors import InputError
-from pyheracles.synthetic.families.simulation import Simulation, apply_overrides
+from pyheracles.synthetic.families.simulation import (
+    Simulation,
+    apply_overrides,
+    check_noise_draw,
+    scan_generator,
+)
 from pyheracles.synthetic.families.supports_build import build_plan
 from pyheracles.synthetic.families.supports_layouts import (
     GENERAL_LAYOUTS,
@@ -148,6 +153,10 @@ class SupportsFamilyParams:
         each, matched in blocks of 2), ``photo_sigma_m`` (5-12 mm),
         ``outlier_share`` (0.1-1 %, log-uniform), ``outlier_below_m`` (0.3-2.5:
         isolated points that far below the lowest surface).
+    noise_draw
+        0 (default): the draw's own scan; k > 0: the same scene scanned again with
+        the k-th other random numbers (detection, noise, mixed pixels, outliers), to
+        check that a rule holds over the noise of a scene, not one draw of it.
     """
 
     layout: str | None = None
@@ -219,6 +228,7 @@ class SupportsFamilyParams:
     outside_window: bool | None = None
     station_spacing_m: float | None = None
     n_photo_positions: int | None = None
+    noise_draw: int = 0
 
 
 def _pick(u: float, options: tuple[Any, ...], weights: tuple[float, ...] | None = None) -> Any:
@@ -335,6 +345,8 @@ def draw_params(seed: int, **overrides: Any) -> SupportsFamilyParams:
     get("clutter_count", lambda u: int(np.floor(u[0] * 25)) if v["clutter"] else 0)
     get("clutter_touch_share", lambda u: _lin(u[0], 0.3, 1.0))
     _survey_params(get, v, layout, ruin)
+    check_noise_draw(base.noise_draw, "supports")
+    v["noise_draw"] = base.noise_draw
     p = SupportsFamilyParams(**v)
     _check_ranges(p)
     return p
@@ -621,6 +633,7 @@ def draw(seed: int, **overrides: Any) -> Simulation:
     scene.objects = rows + _class_rows(scene, rows)
     outliers = Outliers(share=p.outlier_share, below_m=p.outlier_below_m)
     sv = plan_survey(p, plan, solids, _bounds(plan), g_survey)
+    g_scan = scan_generator(seed, p.noise_draw, g_scan, "supports")
     res = scan(scene, sv.acquisitions, outliers=outliers, rng=g_scan)
     params = asdict(p)
     params["n_supports"] = sum(1 for r in rows if r["class"] in SUPPORT_CLASSES)
