@@ -154,13 +154,6 @@ def test_respond_against_a_wall_with_a_door_beside_it_stays() -> None:
     assert not _judge(np.vstack(parts), 3.3, rng, back=False)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "on the per-ray simulator's noise draw (issue 12/13 open): a pier of wall points "
-        "at (-0.16, 3.99), a jamb"
-    ),
-)
 @pytest.mark.slow
 def test_draw_29_wall_piece_between_two_doors_is_no_pier() -> None:
     """Draw 29: the wall piece between a door and a door-high opening of the side wall

@@ -306,7 +306,10 @@ def extract_support(
             pts[free, :2], z[free], rho[free], sh["centre"], sh["buffer"], RING_M, sc, (lo, hi)
         )
         feet = foot_levels(cpts[:, 2], floor_z, ftol)
-        own_top = float(cpts[:, 2].max()) if np.isfinite(top_z) else None
+        # the band under its own top whether or not a carried surface was found over
+        # it: the wall over the lintels beside a wall piece is one with it whatever
+        # the ceiling above showed (draw 29, noise draws 0 and 1)
+        own_top = float(cpts[:, 2].max())
         span = (floor_z, float(cpts[:, 2].max()))
         if (
             sh["class"] == "pier"
@@ -434,8 +437,7 @@ def wall_piece_in_bands(
 ) -> bool:
     """Whether a pier candidate is a piece of a wall: its foot stands in a wall face
     (:func:`~pyheracles.supports.piers.foot_on_wall_line`, at any of the heights
-    ``feet``), or, when it carries
-    something (``top``: its own highest point, None if it carries nothing), wall faces
+    ``feet``), or (``top``: its own highest point; None: the foot only) wall faces
     flush with its faces run on beyond both of its ends at its foot or in the band
     under its top (:data:`~pyheracles.supports.piers.UPPER_FROM_M` to
     :data:`~pyheracles.supports.piers.UPPER_TO_M` below it), one end in one band and
