@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
+from pyheracles.supports.arcs import arc_owner
 from pyheracles.supports.cookies import cookies, extract_support
 from pyheracles.supports.core import (
     MAX_SECTION_SHARE,
@@ -274,6 +275,12 @@ def detect_supports_checked(
                 bool(sh.get("sparse", False)),
             )
         )
+    arcs = join_arcs_to_columns(p, rows, members, sc.tol)
+    if arcs:
+        notes.append(
+            f"{arcs} pier candidate{'s' if arcs > 1 else ''} on the surface of a column "
+            "found beside (an arc of its ring): joined to it"
+        )
     thin = thin_free_columns(rows, [m[1] for m in members])
     if thin:
         notes.append(
@@ -316,6 +323,35 @@ def detect_supports_checked(
     if not rows:
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
+
+
+def join_arcs_to_columns(p: Array, rows: list[dict], members: list[tuple], tol: float) -> int:
+    """Join the pier candidates whose points lie on a column's surface to that column,
+    in place (``rows``, ``members``: the supports' table rows and (points, ...) tuples);
+    returns how many were joined.
+
+    A large ring breaks into arcs in a thin section, and a flat arc is a pier island
+    there; the column itself may be found in another section from another arc (supports
+    draw 18: an arc of a 0.67 m column over 30 degrees was a pier in the main section,
+    the column came from the low one; one column found twice)."""
+    cols = [k for k, r in enumerate(rows) if r["class"] in ("column", "engaged_column")]
+    piers = [k for k, r in enumerate(rows) if r["class"] == "pier"]
+    if not cols or not piers:
+        return 0
+    columns = [(rows[k], p[members[k][0]]) for k in cols]
+    gone = []
+    for k in piers:
+        j = arc_owner(p[members[k][0]], columns, tol)
+        if j is None:
+            continue
+        c = cols[j]
+        joined = np.union1d(members[c][0], members[k][0])
+        members[c] = (joined, *members[c][1:])
+        rows[c]["n_points"] = len(joined)
+        gone.append(k)
+    for k in sorted(gone, reverse=True):
+        del rows[k], members[k]
+    return len(gone)
 
 
 def engage_on_wall_faces(
