@@ -91,6 +91,13 @@ class FrameParams:
         room's face of the wall to the plate, up to a wall's thickness, and
         the boxes of a strip seen at a grazing angle and of a plate seen on
         one face are narrower than they are, so they need not touch.
+    bearing_skew_deg
+        Largest angle in plan between a bearing and the beam lying on it,
+        degrees (:func:`bearing`): the strip of a wall head is seen at a
+        grazing angle over a part of its width that shifts along it, so its
+        band's direction can be several degrees off the plate's (roof seed 11:
+        6.4 degrees); horizontal members laid along one another are parallel,
+        crossing ones are square.
     """
 
     joints: JointParams = field(default_factory=JointParams)
@@ -101,6 +108,7 @@ class FrameParams:
     plumb_deg: float = 85.0
     span_share: float = 0.8
     bearing_reach_m: float = 1.0
+    bearing_skew_deg: float = 10.0
 
     def validate(self) -> FrameParams:
         self.joints.validate()
@@ -117,6 +125,10 @@ class FrameParams:
         if not 0 <= self.bearing_reach_m <= 5:
             raise InputError(
                 f"bearing_reach_m must be in [0, 5] metres, got {self.bearing_reach_m}"
+            )
+        if not 0 <= self.bearing_skew_deg < 45:
+            raise InputError(
+                f"bearing_skew_deg must be in [0, 45) degrees, got {self.bearing_skew_deg}"
             )
         if self.min_frame_members < 2:
             raise InputError(f"min_frame_members must be >= 2, got {self.min_frame_members}")
@@ -348,7 +360,8 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     face under it, is a straight horizontal band on a convex edge, as long
     as the plate, and comes out as a beam.  What gives it away is the plate:
     the box's top is level (within ``joints.contact_m``) with the underside
-    of a parallel horizontal beam beside it or on it, along at least half of
+    of a horizontal beam laid along it (within ``bearing_skew_deg`` in plan:
+    a strip seen at a grazing angle comes out skewed) beside it or on it, along at least half of
     the shorter one, i.e. the surface the plate rests on goes on under the
     plate.  Both levels are the sections' at the middle of the overlap, not
     the boxes' lowest and highest corners (which a tilt of the long axis
@@ -364,7 +377,7 @@ def bearing(beams: list[BeamCuboid], p: FrameParams) -> NDArray[np.bool_]:
     n = len(beams)
     out = np.zeros(n, bool)
     flat = [i for i, b in enumerate(beams) if b.inclination_deg <= p.roles.horizontal_deg]
-    cos_par = math.cos(math.radians(p.roles.horizontal_deg))
+    cos_par = math.cos(math.radians(p.bearing_skew_deg))
     contact = p.joints.contact_m
     for i in flat:
         low = beams[i]
