@@ -9,7 +9,9 @@
    horizontal beam joined to nothing that spans the frame (a tie beam whose
    joints are hidden in the walls, ``span_share``; not a chimney); timber lying below the frame's
    bottom and joined to none of it (loose timber on the floor) is flagged as
-   not a member of the frame, and so is a beam
+   not a member of the frame, and so is an inclined beam of a small group
+   apart from the frame whose foot stands below the frame's bottom
+   (:func:`leaning_apart`: a ladder joined to nothing), and so is a beam
    that only leans on it (one joint, at its upper half, its foot below the
    frame's bottom: a ladder against a post) or lies under it touching it (one
    joint, wholly below the frame's bottom: timber on the floor), and so is a
@@ -53,6 +55,7 @@ __all__ = [
     "frame_members",
     "idle_standing",
     "leaning",
+    "leaning_apart",
     "loose",
     "section_half_height",
 ]
@@ -298,6 +301,24 @@ def leaning(
     return out
 
 
+def leaning_apart(beams: list[BeamCuboid], bottom: float, p: FrameParams) -> NDArray[np.bool_]:
+    """Beams of a group apart from the frame that stand below its bottom, leaning.
+
+    Not plumb (below ``plumb_deg``) and the lower end more than
+    ``leaning_below_m`` under the frame's ``bottom`` (metres): the group
+    reaches up beside the frame from the floor but is joined to none of its
+    members (roof seed 15: a ladder whose top touches nothing as fitted, its
+    rails two boxes joined to each other only, 1.3 m below the tie beams).  A
+    couple of rafters apart from the frame has its feet at the eaves, at the
+    frame's bottom; a post stands plumb (:func:`idle_standing` judges those).
+    """
+    out = np.zeros(len(beams), bool)
+    for i, b in enumerate(beams):
+        lowest = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        out[i] = b.inclination_deg < p.plumb_deg and lowest < bottom - p.leaning_below_m
+    return out
+
+
 def loose(
     beams: list[BeamCuboid], joints: list[Joint], in_frame: NDArray[np.bool_], p: FrameParams
 ) -> NDArray[np.bool_]:
@@ -490,6 +511,9 @@ def frame_members(
             top = max(float(beams[i].centre[2]) + _half_height(beams[i]) for i in ids)
             section = max(max(beams[i].width, beams[i].height) for i in ids)
             in_frame[ids] = top > bottom - section  # level with the frame's bottom beams
+            # a group apart from the frame whose inclined beams stand on the floor
+            # below the frame's bottom is a ladder or a prop, not part of it
+            in_frame[ids] &= ~leaning_apart([beams[i] for i in ids], bottom, p)
             if len(ids) == 1:
                 # joined to nothing: only a beam spanning the frame (a tie from wall to
                 # wall, its joints hidden in the masonry), not a chimney or a stray piece
