@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from pyheracles.geometry.sections import sort_order
 from pyheracles.segment.euclidean import voxel_clusters
 from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.face_rise import face_rise_along_wall
 from pyheracles.supports.floors import foot_floor
 from pyheracles.supports.piers import (
     FOOT_FROM_M,
@@ -251,7 +252,12 @@ def extract_support(
         # an engaged column stands in a wall: the face must rise with it (a fence rail or
         # a bench touching a one-sided scanned column is no wall)
         top = top_z if np.isfinite(top_z) else z_range[1]
-        if face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5:
+        if face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5 and not (
+            sh["class"] == "engaged_column"
+            and height_band is not None
+            and face_rise_along_wall(p, height_band, sh, sc.tol, (floor_z, top), cell) >= 0.5
+        ):  # the face in the cookie is shadowed or cut by an opening: followed along
+            # the wall, it rises with the column (supports draw 0)
             if sh.get("respond", False):
                 return None  # a bump on a wall that does not rise with it: clutter
             sh["class"] = "column"

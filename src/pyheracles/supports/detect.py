@@ -26,6 +26,7 @@ from pyheracles.supports.core import (
     one_blas_thread,
     scales,
 )
+from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.piers import WALL_LINE_GAP_M, in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
@@ -239,6 +240,12 @@ def detect_supports_checked(
     # per row: its points, whether it carries, the underside of what it carries (inf:
     # nothing) and the share of sectors covered just above its top
     members: list[tuple[NDArray[np.intp], bool, float, float]] = []
+    # the shapes near each one: their surfaces are not the wall an engaged column stands in
+    centres = np.array([np.asarray(sh["centre"], dtype=np.float64) for sh in shapes])
+    reaches = np.array([shape_reach(sh) for sh in shapes])
+    for k, sh in enumerate(shapes):
+        if sh["class"] == "engaged_column":
+            sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
         kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
