@@ -484,6 +484,34 @@ def one_face_width_error(o: dict, pts: np.ndarray, dims: dict[str, float]) -> fl
     return abs(dims.get("h", np.inf) - cu["height"])
 
 
+def size_detail(o: dict, cub, pts: np.ndarray) -> dict:
+    """A matched member's size errors side by side (diagnostic, millimetres).
+
+    Signed found minus true width ``dw`` and height ``dh``; where each of the
+    found box's four sides lies against the true one (``side_lo``/``side_hi``
+    along the member's ``side``, ``up_lo``/``up_hi`` along ``up``, positive
+    outwards); the true bend and twist; the points per true face.
+    """
+    cu = o["cuboid"]
+    side, up = np.asarray(cu["side"]), np.asarray(cu["up"])
+    out: dict = {"role": o["role"], "faces": int(o["faces_seen"]), "found_faces": cub.faces_seen}
+    for name, vec, half_t in (("side", side, cu["width"] / 2), ("up", up, cu["height"] / 2)):
+        half_f = 0.5 * (
+            abs(cub.axes[:, 1] @ vec) * cub.width + abs(cub.axes[:, 2] @ vec) * cub.height
+        )
+        c = float((cub.centre - np.asarray(cu["centre"])) @ vec)
+        out[f"{name}_lo"] = round(1000 * (half_f - c - half_t), 1)
+        out[f"{name}_hi"] = round(1000 * (half_f + c - half_t), 1)
+    out["dw"] = round(out["side_lo"] + out["side_hi"], 1)
+    out["dh"] = round(out["up_lo"] + out["up_hi"], 1)
+    out["bend_mm"] = round(1000 * o["deflection_m"], 1)
+    out["twist_deg"] = round(o["twist_deg"], 2)
+    out["per_face"] = o.get("points_per_face", {})
+    out["obs"] = [bool(b) for b in observable_sizes(o, pts)]
+    out["len_ratio"] = round(cub.length / cu["length"], 3)
+    return out
+
+
 def member_scores(sim, result) -> dict:
     """Match found beams to the true members of a ``roof`` draw and score them.
 
@@ -575,6 +603,15 @@ def member_scores(sim, result) -> dict:
             cut_far[j] = d(end) > d(other)
     vis = np.flatnonzero(visible)
     fv = f1[vis]
+    size_members = [
+        dict(
+            size_detail(objs[j], result.beams[match[j] - 1], xyz[truth == j + 1]),
+            member=int(j) + 1,
+            err_mm=round(1000 * float(np.nan_to_num(size_err[j], nan=face_width_err[j])), 1),
+        )
+        for j in vis
+        if f1[j] >= 0.5 and (faces[j] >= 2 or np.isfinite(face_width_err[j]))
+    ]
     two = vis[faces[vis] >= 2]
     matched = vis[f1[vis] >= 0.5]
     size_ok_set = two[f1[two] >= 0.5]
@@ -632,6 +669,7 @@ def member_scores(sim, result) -> dict:
     }
     return {
         "match_found": np.where(f1 >= 0.5, match, 0).tolist(),  # popped by the sweep
+        "size_members": size_members,  # popped by the sweep (its failures kept)
         "n_members": n_mem,
         "n_visible": len(vis),
         "n_hidden": int(n_mem - len(vis)),
@@ -920,6 +958,9 @@ def sweep(n: int, first: int = 0) -> None:
         else:
             s = member_scores(sim, result)
             s.update(frame_scores(sim, result, frame, s.pop("match_found")))
+            s["size_fail_members"] = [
+                m for m in s.pop("size_members") if m["err_mm"] > 1000 * SWEEP_SIZE_M
+            ]
         row = emit(
             dataset=f"roof/seed{seed}",
             metric="beams_family_draw",
