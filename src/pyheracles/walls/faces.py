@@ -9,15 +9,26 @@ from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, WallParams
 from pyheracles.walls.openings import face_spacing
-from pyheracles.walls.planes import bridge_runs, fit_vertical, grid_components, plane_frame
+from pyheracles.walls.planes import (
+    bridge_runs,
+    fit_vertical,
+    grid_components,
+    plane_frame,
+    run_on_ends,
+)
 
 __all__ = ["face_points", "find_faces"]
 
 
 def find_faces(
     xyz: Array, sample: NDArray[np.int64], normals: Array, p: WallParams
-) -> list[tuple[Array, float, NDArray[np.int64]]]:
-    """Faces on the sample: (normal, d, sample-point indices into ``xyz``)."""
+) -> list[tuple[Array, float, NDArray[np.int64], bool]]:
+    """Faces on the sample: (normal, d, sample-point indices into ``xyz``, whether the
+    face reaches ``min_length_m`` only when run on to its corners).
+
+    A face run on to its corners (:func:`_corner_length`) may be a reveal of a wall as
+    thick as ``min_length_m``; :func:`~pyheracles.walls.pairing.reveal_drafts` tells.
+    """
     nz_max = math.sin(math.radians(p.max_tilt_deg))
     cand = np.flatnonzero(np.abs(normals[:, 2]) <= nz_max)
     if len(cand) < 3:
@@ -31,7 +42,7 @@ def find_faces(
     cos_n = math.cos(math.radians(p.normal_angle_deg))
     spacing = p.voxel_m or 0.06
     min_pts = max(30, int(0.25 * p.min_area_m2 / spacing**2))
-    faces: list[tuple[Array, float, NDArray[np.int64]]] = []
+    faces: list[tuple[Array, float, NDArray[np.int64], bool]] = []
     dbin = 2 * p.distance_m
     lo, hi = off.min() - dbin, off.max() + dbin
     abins = np.linspace(0, np.pi, 181)
@@ -86,22 +97,46 @@ def find_faces(
         grid[ij[:, 0], ij[:, 1]] = True
         lab, k = grid_components(grid, 2)
         plab = lab[ij[:, 0], ij[:, 1]]
+        # the plane's points whatever their normals (a face's corners, see run_on_ends)
+        on = np.abs(pts @ n - d) <= p.distance_m
+        on_uz = np.c_[(pts[on] - origin) @ u, pts[on, 2]]
         for c in range(1, k + 1):
             part = inl[plab == c]
             if len(part) < min_pts:
                 continue
             puz = uz[plab == c]
-            length, height = np.ptp(puz[:, 0]), np.ptp(puz[:, 1])
+            height = np.ptp(puz[:, 1])
             comp = lab == c
             area = np.count_nonzero(comp) * cell**2
+            length = _corner_length(on_uz, puz, area, p)
             if length < p.min_length_m or height < p.min_height_m or area < p.min_area_m2:
                 continue
             # a wall is solid over most of its length: rows of pew ends, railings are not
             col_h = comp.sum(axis=1)[comp.any(axis=1)] * cell
             if np.mean(col_h >= p.min_height_m) < 0.5:
                 continue
-            faces.append((n, d, sample[cand[part]]))
+            faces.append((n, d, sample[cand[part]], bool(np.ptp(puz[:, 0]) < p.min_length_m)))
     return faces
+
+
+def _corner_length(on_uz: Array, puz: Array, area: float, p: WallParams) -> float:
+    """Length (m) of a face whose points by their normals are ``puz`` (``(u, z)`` on its
+    plane, covering ``area`` m2), run on to its corners over its plane's points
+    ``on_uz`` between its foot and top (:func:`~pyheracles.walls.planes.run_on_ends`):
+    up to the normals' neighbourhood radius (``normal_neighbours`` points at the face's
+    spacing) beyond each end, across gaps of two spacings.
+
+    A facet of a polygonal apse, 1.0-1.1 m long inside, lost 0.05-0.15 m at both of
+    its corners, where the normals turn, and was shorter than ``min_length_m`` (church
+    draw 16: the inner face of the apse's middle facet, 0.95 m between its seeds, was
+    no face, and the facet no wall).
+    """
+    spacing = max(math.sqrt(area / len(puz)), p.voxel_m or 0.06)
+    reach = math.sqrt(p.normal_neighbours / math.pi) * spacing
+    z0, z1 = float(puz[:, 1].min()), float(puz[:, 1].max())
+    u = on_uz[(on_uz[:, 1] >= z0) & (on_uz[:, 1] <= z1), 0]
+    lo, hi = run_on_ends(u, float(puz[:, 0].min()), float(puz[:, 0].max()), reach, 2 * spacing)
+    return hi - lo
 
 
 def _refine(pts: Array, nrm: Array, idx: NDArray[np.int64], n: Array, d: float,

@@ -47,6 +47,10 @@ class WallParams:
         Largest angle between a point's normal and its face's (20 deg).
     max_tilt_deg
         Largest tilt of a wall from the vertical (10 deg).
+    normal_neighbours
+        Points of the detection sample whose plane gives a point's normal (16).  A
+        face's length is measured up to its corners over its plane's points, past the
+        neighbourhood (about ``sqrt(k / pi)`` spacings) where the normals turn.
     min_length_m, min_height_m, min_area_m2
         Smallest face kept (1 m long, 1.5 m high, 2 m2): pews, gravestones and
         window reveals are smaller.
@@ -89,6 +93,7 @@ class WallParams:
     distance_m: float = 0.03
     normal_angle_deg: float = 20.0
     max_tilt_deg: float = 10.0
+    normal_neighbours: int = 16
     min_length_m: float = 1.0
     min_height_m: float = 1.5
     min_area_m2: float = 2.0
@@ -119,6 +124,9 @@ class WallParams:
             v = getattr(self, name)
             if not (0 < v < 90):
                 raise ValueError(f"{name} must be between 0 and 90 degrees, got {v!r}")
+        if not (isinstance(self.normal_neighbours, int) and self.normal_neighbours >= 3):
+            raise ValueError(f"normal_neighbours must be an integer >= 3, got "
+                             f"{self.normal_neighbours!r}")  # fmt: skip
         if not 0 <= self.min_thickness_m < self.max_thickness_m:
             raise ValueError("min_thickness_m must be >= 0 and below max_thickness_m")
         if self.snap_m < 0:

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from pyheracles.walls.model import Array, WallFace, WallParams
 from pyheracles.walls.planes import plane_frame
 
-__all__ = ["material_side", "pair_faces", "shared_cells"]
+__all__ = ["material_side", "pair_faces", "reveal_drafts", "shared_cells"]
 
 
 def pair_faces(xyz: Array, faces: list[WallFace], p: WallParams) -> list[tuple[int, ...]]:
@@ -146,3 +146,39 @@ def material_side(xyz: Array, tree: Any, face: WallFace, p: WallParams) -> int:
     if counts[0] == counts[1]:
         return 0
     return -1 if counts[0] > counts[1] else 1  # material away from the floor
+
+
+def reveal_drafts(xyz: Array, drafts: list[dict[str, Any]], run_on: set[int],
+                  p: WallParams) -> list[int]:  # fmt: skip
+    """Indices of the draft walls that are reveals of another wall: with a face in
+    ``run_on`` (the ``id`` of faces long enough only when run on to their corners), at
+    more than 45 deg to a wall seen on both faces, and every face lying between that
+    wall's faces (nine tenths of its points within half its thickness plus
+    ``distance_m`` of its mid-plane, and within its stretch).
+
+    A reveal spans its wall's thickness: in a wall as thick as ``min_length_m``, run on
+    to its corners, it is as long as a facet of an apse, and a window's two jambs face
+    each other like the faces of a wall (church draw 14, 1.09 m thick: eleven reveals
+    became walls of their own).
+    """
+    cos_max = math.cos(math.radians(45.0))
+    walls = [w for w in drafts if len(w["faces"]) == 2]
+    out = []
+    for k, w in enumerate(drafts):
+        if not any(id(f) in run_on for f in w["faces"]):
+            continue
+        for v in walls:
+            if v is w or abs(float(w["faces"][0].normal @ v["normal"])) > cos_max:
+                continue
+            uv = np.concatenate([(xyz[g.indices] - v["origin"]) @ v["u_axis"] for g in v["faces"]])
+            half = 0.5 * float(v["thickness"]) + p.distance_m
+            inside = []
+            for f in w["faces"]:
+                q = xyz[f.indices]
+                u = (q - v["origin"]) @ v["u_axis"]
+                within = (np.abs(q @ v["normal"] - float(v["d"])) <= half) & (u >= uv.min())
+                inside.append(float(np.mean(within & (u <= uv.max()))))
+            if min(inside) >= 0.9:
+                out.append(k)
+                break
+    return out

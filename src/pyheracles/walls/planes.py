@@ -15,6 +15,7 @@ __all__ = [
     "grid_components",
     "intersect_planes",
     "plane_frame",
+    "run_on_ends",
     "voxel_sample",
 ]
 
@@ -64,6 +65,33 @@ def plane_frame(n: Array, d: float) -> tuple[Array, Array]:
     u = np.array([-h[1], h[0], 0.0])
     origin = h * d / max(float(n @ h), 1e-9)
     return origin, u
+
+
+def run_on_ends(u: Array, lo: float, hi: float, reach: float,
+                gap: float) -> tuple[float, float]:  # fmt: skip
+    """A face's stretch ``[lo, hi]`` (m along the wall) run on past its ends over the
+    positions ``u`` of its plane's points, up to ``reach`` beyond each end, across gaps
+    of at most ``gap``.
+
+    A face's points are found by their normals, and the normal of a point within the
+    normals' neighbourhood of a corner mixes in the other face's: a face ends short of
+    its corners by about that neighbourhood's radius.  Its plane's points run on to the
+    corner; at a free edge there are none beyond it, and the stretch stays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> run_on_ends(np.array([-0.3, -0.08, -0.02, 1.05, 1.12, 1.4]), 0.0, 1.0, 0.2, 0.1)
+    (-0.08, 1.12)
+    """
+    ends = []
+    for s, end in ((-1.0, lo), (1.0, hi)):
+        v = np.sort(s * (u - end))
+        v = v[(v > 0) & (v <= reach)]
+        steps = np.diff(np.r_[0.0, v])
+        k = int(np.argmax(steps > gap)) if np.any(steps > gap) else len(v)
+        ends.append(end + s * float(v[k - 1]) if k else end)
+    return ends[0], ends[1]
 
 
 def bridge_runs(occ: NDArray[np.bool_], n: int) -> NDArray[np.bool_]:

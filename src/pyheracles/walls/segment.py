@@ -14,7 +14,7 @@ from pyheracles.walls.joins import join_walls, snap_outline
 from pyheracles.walls.junctions import cut_faces, junction_cuts
 from pyheracles.walls.model import Wall, WallFace, WallParams, WallResult
 from pyheracles.walls.outlines import wall_outline
-from pyheracles.walls.pairing import material_side, pair_faces
+from pyheracles.walls.pairing import material_side, pair_faces, reveal_drafts
 from pyheracles.walls.planes import fit_vertical, plane_frame, voxel_sample
 
 __all__ = ["segment_walls"]
@@ -71,7 +71,7 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
     if len(sample) < 50:
         notes.append("no walls: too few points after thinning for a wall plane")
         return WallResult(labels, (), p, tuple(notes), timings)
-    pca = local_pca(pts[sample], k=16, directions=False)
+    pca = local_pca(pts[sample], k=p.normal_neighbours, directions=False)
     timings["normals"] = time.perf_counter() - t
     t = time.perf_counter()
     found = find_faces(pts, sample, pca.normals, p)
@@ -84,8 +84,10 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
         return WallResult(labels, (), p, tuple(notes), timings)
     t = time.perf_counter()
     faces: list[WallFace] = []
+    run_on: set[int] = set()  # faces long enough only when run on to their corners
+    keep_alive: list[WallFace] = []  # (their ids stay theirs)
     taken = np.zeros(n, dtype=bool)
-    for nrm, d, seeds in found:
+    for nrm, d, seeds, short in found:
         idx = face_points(pts, nrm, d, seeds, p)
         idx = idx[~taken[idx]]
         if len(idx) < 3:
@@ -96,15 +98,20 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
             # surface), not one planar face: its points stay in the pool
         taken[idx] = True
         faces.append(WallFace(nrm2, d2, idx, rms))
+        if short:
+            run_on.add(id(faces[-1]))
+            keep_alive.append(faces[-1])
     timings["face_points"] = time.perf_counter() - t
     t = time.perf_counter()
     tree = cKDTree(pts[sample])
     sample_pts = pts[sample]
     drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
+    drafts = _no_reveals(pts, drafts, run_on, p)
     cuts = junction_cuts(pts, drafts, p)
     if any(cuts):  # faces cut where walls abut their wall, and paired again
         faces = cut_faces(pts, faces, drafts, cuts, p)
         drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
+        drafts = _no_reveals(pts, drafts, run_on, p)
     # outlines and openings
     for w in drafts:
         idx = np.concatenate([f.indices for f in w["faces"]])
@@ -165,6 +172,16 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
             )
     timings["walls"] = time.perf_counter() - t
     return WallResult(labels, tuple(walls), p, tuple(notes), timings)
+
+
+def _no_reveals(pts: np.ndarray, drafts: list[dict[str, Any]], run_on: set[int],
+                p: WallParams) -> list[dict[str, Any]]:  # fmt: skip
+    """``drafts`` without the reveals of other walls (:func:`reveal_drafts`): their
+    points stay in the pool."""
+    if not run_on:
+        return drafts
+    drop = set(reveal_drafts(pts, drafts, run_on, p))
+    return [w for k, w in enumerate(drafts) if k not in drop]
 
 
 def _drafts(pts: np.ndarray, faces: list[WallFace], groups: list[tuple[int, ...]], tree: Any,
