@@ -62,6 +62,22 @@ def classify_island(
         angle = float(np.arctan2(vec[1, 1], vec[0, 1]))
     length = float(size[0])
     kind = str(island_kind(np.array([length]), np.array([float(size[1])]), params)[0])
+    if (
+        kind == "wall"
+        and with_shapes
+        and params.max_support_size_m < length <= np.sqrt(2.0) * params.max_support_size_m
+        and length <= params.wall_min_aspect * float(size[1])
+    ):
+        # a pier seen from one corner is an L of two faces: the smallest rectangle round
+        # it lies along its diagonal, longer than the pier (supports draw 30: a 2.0 x
+        # 1.77 m pier boxed 2.66 x 1.34 m, longer than any support): its kind is
+        # that of the rectangle the points lie on, if they do within a centimetre (an
+        # arc of a large ring, a plinth's corner among sparse points, do not: draw 23)
+        o_centre, o_angle, o_size = outline_rectangle(p)
+        o_kind = str(island_kind(np.array([o_size[0]]), np.array([o_size[1]]), params)[0])
+        o_rms = rect_rms(p, o_centre, o_angle, o_size.copy())[0]
+        if o_kind != "wall" and o_rms <= SPARSE_RECT_RMS_M:
+            kind, centre, angle, size, length = o_kind, o_centre, o_angle, o_size, float(o_size[0])
     circ, c_rms, r_rms, radius = nan, nan, nan, nan
     if kind == "support" and with_shapes:
         # the rectangle the points lie on: a pier seen from a corner is an L, whose
