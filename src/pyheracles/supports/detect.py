@@ -39,6 +39,7 @@ from pyheracles.supports.rings import (
     wall_face_beside,
     wall_face_lines,
 )
+from pyheracles.supports.round_shaft import column_again
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 
 # ------------------------------------------------------------------------------ main
@@ -246,11 +247,23 @@ def detect_supports_checked(
     for k, sh in enumerate(shapes):
         if sh["class"] == "engaged_column":
             sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
+    rounded = 0
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
         kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
         if kept is None:
             continue
+        if sh["class"] == "pier" and not sh.get("respond", False):
+            # a pier at its section whose shaft is round over its height: a column (a
+            # sparse ring beside a sign at the section), its points taken again as one
+            col = column_again(p, idx, kept[2], sh, params)
+            if col is not None:
+                again = extract_support(p, *col[1:], col[0], params, sc, h_own, (z0, z1), band)
+                if again is not None:
+                    sh.clear()
+                    sh.update(col[0])
+                    kept = again
+                    rounded += 1
         cidx, crho, cpts = kept
         row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
         off = row.pop("off_shaft", None)  # a bench or a chair touching a column
@@ -281,6 +294,11 @@ def detect_supports_checked(
                 bool(sh.get("reaches", sh.get("carries", True))),
                 bool(sh.get("sparse", False)),
             )
+        )
+    if rounded:
+        notes.append(
+            f"{rounded} pier candidate{'s are' if rounded > 1 else ' is'} round over "
+            "the bands of its shaft (a sparse or cluttered section): column"
         )
     arcs = join_arcs_to_columns(p, rows, members, sc.tol)
     if arcs:
