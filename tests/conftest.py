@@ -29,3 +29,17 @@ def _no_reports_unless_asked(request, monkeypatch) -> None:
     """Commands skip report.html in tests (seconds each), except the tests of the reports."""
     if "report" not in request.node.module.__name__:
         monkeypatch.setenv("HERACLES_NO_REPORT", "1")
+
+
+def pytest_configure(config) -> None:
+    """Ctrl-C as a terminal delivers it, whatever started the test run.
+
+    A shell without job control starts background commands with SIGINT ignored, and a
+    process keeps an ignored signal across exec: the Ctrl-C tests (exit code 130, no
+    traceback) would then see no interrupt at all, in process or in the commands they
+    start.  The default handler here is reset to the default action in those commands.
+    """
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
