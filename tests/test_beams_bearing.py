@@ -19,8 +19,9 @@ from pyheracles.beams.model import BeamCuboid
 X, Y, Z = np.eye(3)
 
 
-def _box(centre, axis, width, height, length) -> BeamCuboid:
-    axis = np.asarray(axis, float)
+def box_along(centre, axis, width, height, length) -> BeamCuboid:
+    """A cuboid seen on two faces, ``axis`` along its length (any scale), upright."""
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
     side = np.cross(Z, axis) if abs(axis[2]) < 0.9 else np.cross(axis, X)
     side /= np.linalg.norm(side)
     up = np.cross(axis, side)
@@ -37,8 +38,8 @@ def _box(centre, axis, width, height, length) -> BeamCuboid:
 
 
 def _plate_on_wall_head():
-    plate = _box([4.18, -4.80, 0.111], X, 0.193, 0.125, 8.37)
-    strip = _box([4.20, -4.466, 0.019], X, 0.497, 0.063, 8.43)  # top at 0.05: the plate's bed
+    plate = box_along([4.18, -4.80, 0.111], X, 0.193, 0.125, 8.37)
+    strip = box_along([4.20, -4.466, 0.019], X, 0.497, 0.063, 8.43)  # top at 0.05: the plate's bed
     return plate, strip
 
 
@@ -50,8 +51,10 @@ def test_the_strip_of_wall_head_beside_a_plate_is_its_bearing():
 def test_the_wall_head_strip_is_no_member_of_the_frame():
     plate, strip = _plate_on_wall_head()
     # two tie beams across the plate and the strip, a couple of rafters on the plate
-    ties = [_box([x, 0.0, 0.03], Y, 0.21, 0.2, 9.4) for x in (1.0, 7.5)]
-    rafters = [_box([x, -2.5, 2.2], np.array([0.0, 0.6, 0.8]), 0.1, 0.14, 5.5) for x in (1.0, 7.5)]
+    ties = [box_along([x, 0.0, 0.03], Y, 0.21, 0.2, 9.4) for x in (1.0, 7.5)]
+    rafters = [
+        box_along([x, -2.5, 2.2], np.array([0.0, 0.6, 0.8]), 0.1, 0.14, 5.5) for x in (1.0, 7.5)
+    ]
     beams = [plate, strip, *ties, *rafters]
     fp = FrameParams()
     _, member = frame_members(beams, find_joints(beams, fp.joints), fp)
@@ -62,11 +65,11 @@ def test_the_wall_head_strip_is_no_member_of_the_frame():
 def test_timber_beside_a_plate_or_crossing_it_is_no_bearing():
     plate, _ = _plate_on_wall_head()
     # a timber lying beside the plate, its top above the plate's underside
-    beside = _box([4.2, -4.55, 0.09], X, 0.15, 0.18, 4.0)
+    beside = box_along([4.2, -4.55, 0.09], X, 0.15, 0.18, 4.0)
     # a tie beam under the plate, across it
-    tie = _box([4.2, -2.0, -0.05], Y, 0.2, 0.2, 9.0)
+    tie = box_along([4.2, -2.0, -0.05], Y, 0.2, 0.2, 9.0)
     # a post under the plate: not laid along it
-    post = _box([4.2, -4.8, -1.0], Z, 0.2, 0.2, 2.1)
+    post = box_along([4.2, -4.8, -1.0], Z, 0.2, 0.2, 2.1)
     assert not bearing([plate, beside, tie, post], FrameParams()).any()
 
 
@@ -132,7 +135,7 @@ def test_levels_are_the_sections_not_the_corners_of_tilted_boxes():
 def test_level_timber_farther_than_a_wall_head_is_no_bearing():
     plate, strip = _plate_on_wall_head()
     # the same strip 1.5 m into the room from the plate: the plate does not rest on it
-    far = _box(strip.centre + [0.0, 1.5, 0.0], X, 0.2, 0.063, 8.43)
+    far = box_along(strip.centre + [0.0, 1.5, 0.0], X, 0.2, 0.063, 8.43)
     # timber on the wall head 30 cm from the plate, its top above the plate's underside
-    beside = _box([4.2, -4.3, 0.12], X, 0.15, 0.14, 4.0)
+    beside = box_along([4.2, -4.3, 0.12], X, 0.15, 0.14, 4.0)
     assert not bearing([plate, far, beside], FrameParams()).any()

@@ -19,25 +19,9 @@ import pytest
 from pyheracles.beams.frame import FrameParams, frame_members, leaning_apart
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid
+from test_beams_bearing import box_along
 
 X, Y, Z = np.eye(3)
-
-
-def _box(centre, axis, width, height, length) -> BeamCuboid:
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    side = np.cross(Z, axis) if abs(axis[2]) < 0.9 else np.cross(axis, X)
-    side /= np.linalg.norm(side)
-    up = np.cross(axis, side)
-    return BeamCuboid(
-        centre=np.asarray(centre, float),
-        axes=np.column_stack([axis, side, up]),
-        length=length,
-        width=width,
-        height=height,
-        rms=0.002,
-        n_facets=2,
-        faces_seen=2,
-    )
 
 
 def _ladder_of_draw_15() -> list[BeamCuboid]:
@@ -79,7 +63,9 @@ def _ladder_of_draw_15() -> list[BeamCuboid]:
 
 def _between(foot, head, width: float, height: float) -> BeamCuboid:
     foot, head = np.asarray(foot, float), np.asarray(head, float)
-    return _box(0.5 * (foot + head), head - foot, width, height, float(np.linalg.norm(head - foot)))
+    return box_along(
+        0.5 * (foot + head), head - foot, width, height, float(np.linalg.norm(head - foot))
+    )
 
 
 def _collar_roof(tie_z: float = 1.42) -> list[BeamCuboid]:
@@ -87,11 +73,11 @@ def _collar_roof(tie_z: float = 1.42) -> list[BeamCuboid]:
     on its ends and their heads under the ridge, a collar between them."""
     out = []
     for x in (0.2, 4.3):
-        out.append(_box([x, 0.0, tie_z], Y, 0.21, 0.2, 6.8))  # tie, underside 0.1 lower
+        out.append(box_along([x, 0.0, tie_z], Y, 0.21, 0.2, 6.8))  # tie, underside 0.1 lower
         for s in (-1.0, 1.0):
             out.append(_between([x, 3.2 * s, tie_z + 0.17], [x, 0.0, 5.9], 0.19, 0.26))
-        out.append(_box([x, 0.0, 4.79], Y, 0.17, 0.16, 1.9))  # collar
-    out.append(_box([2.25, 0.0, 6.05], X, 0.19, 0.26, 4.6))  # ridge on the rafters' heads
+        out.append(box_along([x, 0.0, 4.79], Y, 0.17, 0.16, 1.9))  # collar
+    out.append(box_along([2.25, 0.0, 6.05], X, 0.19, 0.26, 4.6))  # ridge on the rafters' heads
     return out
 
 
@@ -127,7 +113,7 @@ def test_a_couple_of_rafters_apart_from_the_frame_stays(foot_below: float):
 
 def test_a_plumb_prop_apart_is_left_to_idle_standing():
     """A plumb box is not judged here (a post: :func:`idle_standing`)."""
-    post = _box([2.0, 0.0, 0.5], Z, 0.15, 0.15, 1.2)
+    post = box_along([2.0, 0.0, 0.5], Z, 0.15, 0.15, 1.2)
     assert not leaning_apart([post], 1.32, FrameParams()).any()
 
 
