@@ -19,6 +19,7 @@ from pyheracles.supports.face_rise import (
     face_rise_along_wall,
     neighbour_discs,
 )
+from supports_draws import scored_supports_draw
 
 R = 0.18  # draw 0's columns
 FACE_Y = 0.04  # the wall's face, 4 cm behind the column's axis (room at y < FACE_Y)
@@ -118,15 +119,6 @@ def test_face_rise_counts_the_layers_a_wall_fills() -> None:
 def test_draw_0_engaged_columns_with_a_shadowed_face_are_engaged(noise_draw: int) -> None:
     """Draw 0's engaged columns 61 and 68 (section face found, cookie face 5 % and 0 %
     of the layers on the draw's own noise) are engaged columns on three noise draws."""
-    from pyheracles.building import segment_building
-    from pyheracles.synthetic.families import simulate
-    from pyheracles.synthetic.families.supports_score import score_supports
-
-    sim = simulate("supports", 0, noise_draw=noise_draw)
-    seg, found, _, _ = segment_building(sim.clouds["cloud"].xyz)
-    m = score_supports(
-        sim, found.instance, found.objects, section_height=found.section_height,
-        attic_mask=seg.class_id == 2,
-    )  # fmt: skip
+    m = scored_supports_draw(0, noise_draw=noise_draw)
     wrong = {f["instance"] for f in m["failures"] if f["mode"] == "engaged_as_column"}
     assert not wrong & {61, 68}, wrong

@@ -16,6 +16,7 @@ import pytest
 
 from pyheracles.supports import SupportParams, section_islands
 from pyheracles.supports.sections import classify_island
+from supports_draws import scored_supports_draw
 
 PARAMS = SupportParams()
 SEEDS = range(6)  # noise draws of the same view
@@ -65,15 +66,6 @@ def test_walls_stay_walls() -> None:
 def test_draw_30_piers_found(noise_draw: int) -> None:
     """Draw 30 (noise draws 0-3): every 15 m pier of the portico is found as a pier
     (without the outline's kind, piers are missed in all four: three in noise draw 0)."""
-    from pyheracles.building import segment_building
-    from pyheracles.synthetic.families import simulate
-    from pyheracles.synthetic.families.supports_score import score_supports
-
-    sim = simulate("supports", 30, noise_draw=noise_draw)
-    seg, found, _, _ = segment_building(sim.clouds["cloud"].xyz)
-    m = score_supports(
-        sim, found.instance, found.objects, section_height=found.section_height,
-        attic_mask=seg.class_id == 2,
-    )  # fmt: skip
+    m = scored_supports_draw(30, noise_draw=noise_draw)
     lost = [f for f in m["failures"] if f.get("class") == "pier" or f.get("true") == "pier"]
     assert not lost, lost

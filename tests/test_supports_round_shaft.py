@@ -17,6 +17,7 @@ import pytest
 from pyheracles.supports.core import SupportParams
 from pyheracles.supports.round_shaft import band_circles, round_shaft
 from pyheracles.supports.sections import classify_island
+from supports_draws import scored_supports_draw
 
 P = SupportParams()
 R = 0.18
@@ -95,15 +96,6 @@ DRAW_5_ROUND = {0: {34}, 1: {48}, 2: {9, 30, 37, 48}, 3: {30, 41}}
 def test_draw_5_columns_classed_piers_at_the_section_are_columns(noise_draw: int) -> None:
     """Draw 5's columns that the section called piers (1 to 4 per noise draw) are
     columns over the bands of their shafts."""
-    from pyheracles.building import segment_building
-    from pyheracles.synthetic.families import simulate
-    from pyheracles.synthetic.families.supports_score import score_supports
-
-    sim = simulate("supports", 5, noise_draw=noise_draw)
-    seg, found, _, _ = segment_building(sim.clouds["cloud"].xyz)
-    m = score_supports(
-        sim, found.instance, found.objects, section_height=found.section_height,
-        attic_mask=seg.class_id == 2,
-    )  # fmt: skip
+    m = scored_supports_draw(5, noise_draw=noise_draw)
     wrong = {f["instance"] for f in m["failures"] if f["mode"] == "wrong_class"}
     assert not wrong & DRAW_5_ROUND[noise_draw], wrong
