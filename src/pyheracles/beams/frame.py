@@ -264,6 +264,11 @@ def _half_height(b: BeamCuboid) -> float:
     return 0.5 * float(np.abs(b.axes[2]) @ [b.length, b.width, b.height])
 
 
+def _axis_foot(b: BeamCuboid) -> float:
+    """Height of the lower end of a beam's axis, metres."""
+    return float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+
+
 def leaning(
     beams: list[BeamCuboid], joints: list[Joint], in_frame: NDArray[np.bool_], p: FrameParams
 ) -> NDArray[np.bool_]:
@@ -287,7 +292,7 @@ def leaning(
             continue
         low_end = 0.0 if b.axis[2] >= 0 else 1.0  # parameter of the lower end
         upper = all(abs(jt.at[jt.members.index(i + 1)] - low_end) > 0.5 for jt in mine)
-        lowest = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        lowest = _axis_foot(b)
         rest = in_frame.copy()
         rest[i] = False  # the frame's bottom without this beam
         if not rest.any():
@@ -314,7 +319,7 @@ def leaning_apart(beams: list[BeamCuboid], bottom: float, p: FrameParams) -> NDA
     """
     out = np.zeros(len(beams), bool)
     for i, b in enumerate(beams):
-        lowest = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        lowest = _axis_foot(b)
         out[i] = b.inclination_deg < p.plumb_deg and lowest < bottom - p.leaning_below_m
     return out
 
@@ -460,7 +465,7 @@ def idle_standing(
     for i, b in enumerate(beams):
         if not apart[i] or b.inclination_deg < p.plumb_deg:
             continue
-        foot = float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+        foot = _axis_foot(b)
         if foot > bottom + p.joints.contact_m:
             continue
         low_end = 0.0 if b.axis[2] >= 0 else 1.0
