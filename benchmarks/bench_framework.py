@@ -38,6 +38,7 @@ reported apart (``one_face_width_fail``).
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -53,27 +54,39 @@ from pyheracles.segment.regiongrow import RegionGrowingParams, region_growing
 from pyheracles.synthetic.truss import Beam, TrussParams, make_truss_roof, scan_boxes
 
 REPEATS = 3
-QUICK = "--quick" in sys.argv
-SEEDS = "--seeds" in sys.argv
-SPEED = "--speed" in sys.argv
-
-
-def _option(name: str, default: int | None) -> int | None:
-    """Integer value of ``--name N`` on the command line (``default`` when absent)."""
-    if name not in sys.argv:
-        return default
-    i = sys.argv.index(name)
-    try:
-        return int(sys.argv[i + 1])
-    except (IndexError, ValueError):
-        sys.exit(f"{name} needs a whole number, e.g. {name} 30")
-
-
-SWEEP = _option("--sweep", None)
-FIRST_SEED = _option("--first-seed", 0)
+# The run's options (set from the command line by :func:`_parse_args`; these defaults
+# hold when the module is imported, e.g. by the tests).
+QUICK = False
+SEEDS = False
+SPEED = False
+SWEEP: int | None = None
+FIRST_SEED = 0
 #: ``--noise-draw K``: every draw of the sweep rescanned with its K-th other noise
 #: (the family's ``noise_draw``; 0 = the draws' own scans, the baselines').
-NOISE_DRAW = _option("--noise-draw", 0) or 0
+NOISE_DRAW = 0
+
+
+def _parse_args(argv: list[str]) -> argparse.Namespace:
+    """The command line (see the module docstring); a wrong option exits 2 with usage."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="one roof, the small sizes only")
+    ap.add_argument("--seeds", action="store_true", help="only the generator-seed sweep")
+    ap.add_argument("--speed", action="store_true", help="only the speed rows")
+    ap.add_argument("--sweep", type=int, metavar="N", help="N draws of the roof family")
+    ap.add_argument("--first-seed", type=int, default=0, metavar="S", help="first draw")
+    ap.add_argument(
+        "--noise-draw", type=int, default=0, metavar="K", help="rescan every draw: K-th noise"
+    )
+    ap.add_argument(
+        "--summarize", nargs="+", metavar="FILE", help="summary of sweep parts (jsonl files)"
+    )
+    args = ap.parse_args(argv)
+    if args.sweep is not None and args.sweep < 1:
+        ap.error(f"--sweep needs at least one draw, got {args.sweep}: e.g. --sweep 30")
+    if args.first_seed < 0 or args.noise_draw < 0:
+        ap.error("--first-seed and --noise-draw are whole numbers >= 0")
+    return args
+
 
 #: The roof configurations of the accuracy benchmark: name, generator parameters, seed.
 ROOF_CONFIGS = [
@@ -1123,12 +1136,15 @@ def _summarize_files(paths: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    if "--summarize" in sys.argv:
-        _summarize_files(sys.argv[sys.argv.index("--summarize") + 1 :])
+    ARGS = _parse_args(sys.argv[1:])
+    if ARGS.summarize:
+        _summarize_files(ARGS.summarize)
         sys.exit(0)
+    QUICK, SEEDS, SPEED = ARGS.quick, ARGS.seeds, ARGS.speed
+    SWEEP, FIRST_SEED, NOISE_DRAW = ARGS.sweep, ARGS.first_seed, ARGS.noise_draw
     emit(dataset="machine", metric="load_avg_1min", value=_load(), cpus=os.cpu_count())
     if SWEEP is not None:
-        sweep(SWEEP, FIRST_SEED or 0)
+        sweep(SWEEP, FIRST_SEED)
         sys.exit(0)
     if SEEDS:
         bench_seeds()
