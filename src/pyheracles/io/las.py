@@ -488,6 +488,8 @@ def write_las(
                     f"point format {fmt}",
                     hint="ASPRS class codes are whole numbers 0-255",
                 )
+        if _all_zero_integers(values):
+            continue  # the record is zeros already
         record[name] = values.astype(np.uint8) if values.dtype == np.bool_ else values
     for name, arr in arrays.items():
         _set_extra(record, name, arr)
@@ -509,6 +511,20 @@ def write_las(
         if header.global_encoding.waveform_data_packets_internal:
             _point_header_at_waveform_evlr(tmp)
     return p
+
+
+def _all_zero_integers(values: NDArray[Any]) -> bool:
+    """Whether a field's values are integers (or flags) that are all 0: nothing to write
+    into a record of zeros.
+
+    Setting a field of a 10 M point record costs 0.03-0.1 s of CPU (a strided write; a
+    read, mask and write of the shared byte for the bit fields: return numbers, the
+    flags, the scanner channel), checking it is zero 1 ms; most flags of a survey are
+    all 0 (the 10 flag and bit fields of the benchmark's cloud took 1.1 s of the 4.6 s
+    of writing it).  Floats are written whatever they hold (a -0.0 is not +0.0 in the
+    file).
+    """
+    return values.dtype.kind in "biu" and not values.any()
 
 
 def _set_extra(record: Any, name: str, values: NDArray[Any]) -> None:
