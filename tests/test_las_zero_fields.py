@@ -53,3 +53,32 @@ def test_zero_fields_are_skipped_and_the_points_are_the_same(
             "scan_direction_flag", "edge_of_flight_line", "user_data", "scan_angle",
             "point_source_id", "classification"}  # fmt: skip
     assert not zero & set(written), zero & set(written)
+
+
+def test_zero_bit_fields_are_read_as_zeros_without_masking(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Reading: a bit field whose byte is 0 everywhere is made as zeros; the values and
+    dtypes are those laspy's mask and shift give, for every dimension."""
+    src = _las_with(tmp_path / "in.las", np.random.default_rng(1))
+    masked: list[int] = []
+    view = laspy.point.dims.SubFieldView
+    mask_and_shift = view.masked_array
+
+    def counting(self):  # one call per bit field read through the mask
+        masked.append(self.lsb)
+        return mask_and_shift(self)
+
+    monkeypatch.setattr(view, "masked_array", counting)
+    cloud = read_cloud(tmp_path / "in.las")
+    # return_number and number_of_returns share the only non-zero bit-field byte
+    assert len(masked) == 2, masked
+    monkeypatch.undo()
+    for name in src.point_format.dimension_names:
+        if name in ("X", "Y", "Z"):
+            continue
+        ref = np.array(src[name])
+        got = cloud.attributes[name]
+        assert got.dtype == ref.dtype, name
+        assert got.flags.c_contiguous and got.flags.owndata, name
+        np.testing.assert_array_equal(got, ref, name)
