@@ -130,13 +130,14 @@ class Segmentation:
                 "labels inconsistent: instance and class_id disagree on some points"
             )
         if len(self.objects):
-            ids = np.unique(self.instance[self.instance != 0])
+            ids, counts = ids_and_counts(self.instance)
             table_ids = np.sort(self.objects["instance"].to_numpy())
             if not np.array_equal(ids, table_ids):
                 raise HeraclesError(
                     "labels inconsistent: object ids on points differ from the objects table"
                 )
-            counts = np.bincount(self.instance, minlength=int(table_ids.max()) + 1)
+            if counts is None:  # negative ids (on points and in the table): bincount says so
+                counts = np.bincount(self.instance, minlength=int(table_ids.max()) + 1)
             if not np.array_equal(
                 counts[self.objects["instance"].to_numpy()], self.objects["n_points"].to_numpy()
             ):
@@ -144,6 +145,22 @@ class Segmentation:
         elif np.any(self.instance != 0):
             raise HeraclesError("labels inconsistent: points carry object ids but no objects")
         return c
+
+
+def ids_and_counts(
+    instance: NDArray[np.integer],
+) -> tuple[NDArray[np.integer], NDArray[np.intp] | None]:
+    """Object ids on points (sorted, without 0) and the number of points of each id
+    (indexed by id; None when an id is negative).
+
+    One ``bincount`` of the labels gives both: the ``unique`` of every labelled point
+    it replaces sorted them (every point of a building cloud is labelled: 10 M ints
+    sorted when writing the supports of the issue's 10 M point cloud).
+    """
+    if len(instance) and instance.min() < 0:
+        return np.unique(instance[instance != 0]), None
+    counts = np.bincount(instance)
+    return np.flatnonzero(counts[1:]) + 1, counts
 
 
 def asprs_classification(seg: Segmentation) -> NDArray[np.uint8]:
