@@ -7,6 +7,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.supports.core import Array, Island, trimmed_rms
+from pyheracles.supports.sparse_faces import runs_on_sparse
 
 
 def rect_coords(xy: Array, centre: Array, angle: float) -> Array:
@@ -309,8 +310,13 @@ def flush_wall_ends(
         of the candidate's own outermost face points across it (within ``tol``: flush
         with a face), its unit direction, whether it covers :data:`FOOT_COVER_M` of
         that line beyond the candidate's low / high end along that direction in at
-        least half the layers of the band, and whether the candidate shows that face
-        (:data:`WallLine`).
+        least half the layers of the band (``from_end``: or, a face scanned sparsely,
+        with no gap wider than :data:`~pyheracles.supports.sparse_faces.SPARSE_GAP_M`
+        along it or up the band, :func:`~pyheracles.supports.sparse_faces.runs_on_sparse`;
+        not for the foot and the upper band, where 0.3 m of a flush face anywhere
+        within 1.5 m counts: read from its gaps, the sparse face of the architrave over
+        an anta ran on beyond both its ends, supports draw 30, noise draw 1), and
+        whether the candidate shows that face (:data:`WallLine`).
     """
     if len(foot_xy) < 20 or len(own_xy) < 10:
         return []
@@ -343,6 +349,13 @@ def flush_wall_ends(
         ids, counts = np.unique(keys // 100_000, return_counts=True)
         full = ids[counts >= (need - 1 if from_end else need)]  # (layer, end) covered
         walled = [np.count_nonzero(full % 2 == e) >= 0.5 * n_layers for e in (0, 1)]
+        if from_end and not all(walled):  # a face scanned sparsely: from its gaps too
+            lay = foot_layer[inl][beyond]
+            for e in (0, 1):
+                at = end[beyond] == e
+                walled[e] = walled[e] or runs_on_sparse(
+                    dist[beyond][at], lay[at], n_layers, cell, FOOT_COVER_M, FOOT_OWN_M
+                )
         if any(walled):
             out.append((d, (walled[0], walled[1]), bool(shown)))
     return out
