@@ -229,8 +229,7 @@ def test_scaffold_tower_round_a_column_is_no_wall() -> None:
 @pytest.mark.parametrize(
     "seed",
     [
-        pytest.param(1, marks=pytest.mark.xfail(strict=True, reason=(
-            "per-ray noise draw: clutter merged, plinth lost"))),
+        1,
         pytest.param(3, marks=pytest.mark.xfail(strict=True, reason=(
             "per-ray noise draw: clutter merged, a jamb as a pier"))),
         pytest.param(8, marks=pytest.mark.xfail(strict=True, reason=(

@@ -20,7 +20,11 @@ from numpy.typing import NDArray
 
 from pyheracles.supports.core import Array
 
-__all__ = ["SURFACE_SECTOR_SHARE", "off_shaft"]
+__all__ = ["SURFACE_SECTOR_SHARE", "off_shaft", "plan_reach", "thin_pier"]
+
+#: Height of the layers in which a candidate's plan reach is measured (metres).
+WIDTH_LAYER_M = 0.1
+
 
 #: A layer is the shaft's (not a moulding's) when its points on the shaft's surface fill
 #: at least this share of the sectors its points fill.
@@ -119,3 +123,53 @@ def off_shaft(
     below = np.r_[False, shaft_layer[:-1]]
     above = np.r_[shaft_layer[1:], False]
     return outer & zone & (shaft_layer & below & above)[layer]
+
+
+def plan_reach(pts: Array, layer_m: float = WIDTH_LAYER_M) -> float:
+    """How far points reach in plan, layer by layer (metres).
+
+    Per height layer ``layer_m`` thick holding at least three points, the larger of the
+    points' spreads along the two plan axes of the whole set (its covariance's principal
+    axes); the median over the layers.  A ledger or a board crossing in a few layers
+    does not lengthen it; a pier seen on one face only reaches the face's width.
+    ``nan`` without such a layer.
+    """
+    xyz = np.asarray(pts, dtype=np.float64)
+    if len(xyz) < 3:
+        return math.nan
+    rel = xyz[:, :2] - xyz[:, :2].mean(axis=0)
+    _, vec = np.linalg.eigh(np.cov(rel.T))
+    uv = rel @ vec
+    layer = np.floor((xyz[:, 2] - xyz[:, 2].min()) / layer_m).astype(np.intp)
+    order = np.argsort(layer, kind="stable")
+    cuts = np.flatnonzero(np.diff(layer[order])) + 1
+    spans = [float(np.max(np.ptp(uv[g], axis=0))) for g in np.split(order, cuts) if len(g) >= 3]
+    return float(np.median(spans)) if spans else math.nan
+
+
+def thin_pier(pts: Array, min_support_size_m: float) -> bool:
+    """Whether a pier candidate's points are a tube's over its height, not a pier's.
+
+    A section island shorter than ``min_support_size_m`` every way is noise (a fence
+    bar, a chair leg); one cut where a scaffold's ledger or deck joins its standard is
+    long enough, but the candidate's points over its height are the standard's, a
+    0.024 m tube (supports draws 1 and 35: standards 3.8-9.8 m tall, boxes 0.125 x 0.039
+    and 0.150 x 0.027 m, reaching 0.02-0.06 m in their layers, were piers).  So the same
+    bound holds for the points kept, layer by layer over the height
+    (:func:`plan_reach`); a pier seen on one face only reaches that face's width
+    (draws 27 and 32: 0.16-0.28 m).
+
+    Parameters
+    ----------
+    pts : (N, 3) ndarray
+        The pier candidate's points (metres).
+    min_support_size_m : float
+        The smallest support across (metres), :class:`~pyheracles.supports.core.SupportParams`.
+
+    Returns
+    -------
+    bool
+        True when the points reach less than ``min_support_size_m`` in the median layer.
+    """
+    reach = plan_reach(pts)
+    return bool(np.isfinite(reach) and reach < min_support_size_m)

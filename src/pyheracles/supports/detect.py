@@ -13,6 +13,7 @@ from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
 from pyheracles.supports.arcs import arc_owner
+from pyheracles.supports.clutter import thin_pier
 from pyheracles.supports.cookies import cookies, extract_support
 from pyheracles.supports.core import (
     MAX_SECTION_SHARE,
@@ -247,7 +248,7 @@ def detect_supports_checked(
     for k, sh in enumerate(shapes):
         if sh["class"] == "engaged_column":
             sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
-    rounded = 0
+    rounded = thin_piers = 0
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
         kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
@@ -280,6 +281,13 @@ def detect_supports_checked(
                 "was rejected: its cylinder fit disagrees with its section"
             )
             continue
+        if (
+            sh["class"] == "pier"
+            and not sh.get("respond", False)  # a respond's bump may stand out little
+            and thin_pier(cpts, params.min_support_size_m)
+        ):
+            thin_piers += 1  # a scaffold's standard: no pier
+            continue
         why = implausible(row, cpts, sc)
         if why:  # a primitive must lie within its points: they go back to the body
             rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
@@ -294,6 +302,12 @@ def detect_supports_checked(
                 bool(sh.get("reaches", sh.get("carries", True))),
                 bool(sh.get("sparse", False)),
             )
+        )
+    if thin_piers:
+        notes.append(
+            f"{thin_piers} pier candidate{'s' if thin_piers > 1 else ''} reaching less than "
+            f"the smallest support across in {'their' if thin_piers > 1 else 'its'} layers "
+            "(the standards of scaffolds): not supports"
         )
     if rounded:
         notes.append(
