@@ -43,7 +43,7 @@ def _reveal(w: float, hgt: float, z0: float, z1: float, n: int, rng) -> tuple:
     return u, v, z, nu, nv
 
 
-def _pair(centre, normal, w, hgt, rng, shift_target_m=0.0) -> tuple[Opening, Opening]:
+def opening_pair(centre, normal, w, hgt, rng, shift_target_m=0.0) -> tuple[Opening, Opening]:
     """One opening seen from inside (source frame) and outside (target frame).
 
     The source sees its own reveal (depth 0-0.3 m in front of the mid-plane) densely
@@ -87,7 +87,7 @@ def _church(rng, shifts, gable: bool = True) -> tuple[list[Opening], list[Openin
     sizes = [(0.9, 2.0), (1.0, 2.2), (0.8, 1.9), (1.1, 2.4), (0.95, 2.1), (0.85, 2.3), (1.2, 2.6)]
     S, Tg = [], []
     for (c, n), (w, hgt), sh in zip(places, sizes, shifts, strict=False):
-        a, b = _pair(c, n, w, hgt, rng, sh)
+        a, b = opening_pair(c, n, w, hgt, rng, sh)
         S.append(a)
         Tg.append(b)
     return S, Tg

@@ -41,7 +41,9 @@ from pyheracles.registration.panes import Opening
 __all__ = [
     "PaneICPParams",
     "PaneICPResult",
+    "loose_turn",
     "minimum_spread",
+    "motion_moment",
     "recess_trees",
     "refine_on_recesses",
 ]
@@ -285,6 +287,128 @@ def minimum_spread(
     src = [_subsample(source[i], p.max_points) for i in pairs[:, 0]]
     sgn = -1.0 if opposite_sides else 1.0
     return _basin(source, target, pairs, T0, T, depth_weight, src, trees, p, sgn, directions)
+
+
+def motion_moment(
+    source: list[Opening],
+    target: list[Opening],
+    pairs: NDArray[np.int_],
+    T: Array,
+    centre: Array,
+    lever_m: float,
+    params: PaneICPParams | None = None,
+    *,
+    trees: list[cKDTree | None] | None = None,
+) -> Array:
+    """Moment of the rigid motions that the matched openings' reveal points fix.
+
+    Per opening, the mean of ``a a^T`` over its source points lying on the partner's
+    surfaces under ``T`` (the points of the check of :func:`refine_on_recesses`), with
+    ``a = ((x - centre) x n / lever_m, n)``: ``x`` a mapped source point, ``n`` its
+    partner point's normal.  A motion ``(w, t)`` (turn ``w`` about ``centre``, then
+    ``t``) moves ``x`` by ``w x (x - centre) + t``, so in the coordinates
+    ``(lever_m w, t)`` (metres at the lever) ``u^T M u`` is the mean squared
+    point-to-plane motion that ``u`` gives, summed over the openings: one unit of
+    trace of the translation block per opening, as in
+    :attr:`PaneICPResult.normal_moment`.
+
+    Parameters
+    ----------
+    source, target
+        Openings of the two clouds (with their recess points).
+    pairs
+        ``(K, 2)`` openings whose points count (e.g. those verified by their raw points).
+    T
+        ``T_target_source`` (4x4, local frames).
+    centre
+        ``(3,)`` centre of the turns, target frame.
+    lever_m
+        Distance at which a turn is measured, m.
+    params
+        :class:`PaneICPParams` (``check_gate_m``, ``agree_distance_m``,
+        ``normal_agreement_deg``, ``max_points``).
+    trees
+        :func:`recess_trees` of ``target`` (built when omitted).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(6, 6)`` symmetric moment; its eigenvector of the smallest eigenvalue is the
+        motion the reveal points fix least.
+    """
+    p = params or PaneICPParams()
+    trees = trees if trees is not None else recess_trees(target)
+    cos_tol = float(np.cos(np.deg2rad(p.normal_agreement_deg)))
+    R, t = T[:3, :3], T[:3, 3]
+    M = np.zeros((6, 6))
+    for i, j in pairs:  # a few openings
+        tree = trees[j]
+        src = _subsample(source[i], p.max_points)
+        if tree is None or not len(src[0]):
+            continue
+        x, q, n = _correspond(src, target[j], tree, R, t, p.check_gate_m, cos_tol)
+        on = np.abs(np.einsum("ij,ij->i", x - q, n)) < p.agree_distance_m
+        if not on.any():
+            continue
+        a = np.hstack([np.cross(x[on] - centre, n[on]) / lever_m, n[on]])
+        M += a.T @ a / len(a)
+    return M
+
+
+def loose_turn(
+    source: list[Opening],
+    target: list[Opening],
+    pairs: NDArray[np.int_],
+    T: Array,
+    scatter_m: float,
+    params: PaneICPParams | None = None,
+    *,
+    trees: list[cKDTree | None] | None = None,
+) -> tuple[float, float]:
+    """How far a turn may move the source cloud's openings unseen by the reveals of ``pairs``.
+
+    The turns about the mean of the ``pairs``' mapped source pane centres (their
+    translation held: the translations have their own test, see
+    :attr:`~pyheracles.registration.pane_matching.MatchParams.min_translation_spread`)
+    are measured at the lever, the RMS distance of every source opening's mapped centre
+    from that centre (at least 1 m).  The turn block of their :func:`motion_moment`
+    counts each opening once (one unit of trace), as one observation whose error is
+    ``scatter_m``: a turn moving the lever by ``s`` metres along the eigenvector of the
+    smallest eigenvalue ``lam`` moves the reveal points by ``sqrt(lam) s``, so the
+    reveals cannot tell apart poses ``scatter_m / sqrt(lam)`` apart there.  A turn
+    moving an opening along its own pane normal (its reveals run along it) or turning
+    openings about the line through them is seen only by reveal points near its axis.
+
+    Parameters
+    ----------
+    source, target
+        Openings of the two clouds (with their recess points).
+    pairs
+        ``(K, 2)`` openings whose reveal points count (those verified by them).
+    T
+        ``T_target_source`` (4x4, local frames).
+    scatter_m
+        Error of one opening's reveal points, m (e.g. the recess ICP's RMS).
+    params
+        :class:`PaneICPParams`.
+    trees
+        :func:`recess_trees` of ``target`` (built when omitted).
+
+    Returns
+    -------
+    tuple of float
+        The loosest turn's motion at the lever (``inf`` when ``pairs`` fix none) and
+        the lever, m.
+    """
+    R, t = T[:3, :3], T[:3, 3]
+    probes = np.array([o.centre for o in source]) @ R.T + t
+    if not len(pairs):
+        return float("inf"), 1.0
+    centre = (np.array([source[i].centre for i in pairs[:, 0]]) @ R.T + t).mean(axis=0)
+    lever = max(float(np.sqrt(np.mean(np.sum((probes - centre) ** 2, axis=1)))), 1.0)
+    M = motion_moment(source, target, pairs, T, centre, lever, params, trees=trees)
+    lam = float(np.linalg.eigvalsh(M[:3, :3])[0])
+    return (scatter_m / np.sqrt(lam) if lam > 0 else float("inf")), lever
 
 
 def _basin(

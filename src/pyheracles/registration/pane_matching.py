@@ -29,7 +29,8 @@ window (thesis ch. 3, Murtiyoso 2020):
    points, or by their outlines for openings of one size; not more contradicted than
    ``max_contradiction``), its minimum is unique (displaced starts converge to it) and
    the agreeing openings' reveals fix all three translations (a derived outline seen
-   in part can sit decimetres off in the glass plane; the raw reveals do not).
+   in part can sit decimetres off in the glass plane; the raw reveals do not), and on
+   the fewest openings every turn too (``max_loose_turn_m``).
 6. **Tie points** - per matched opening a local in-plane fit of its outline and its
    pane depth gives four outline points (left, right, bottom, top of the mid-plane
    outline) in both frames, for the usual robust similarity and its report.
@@ -45,6 +46,7 @@ from scipy.spatial import cKDTree
 
 from pyheracles.registration.pane_icp import (
     PaneICPParams,
+    loose_turn,
     minimum_spread,
     recess_trees,
     refine_on_recesses,
@@ -62,6 +64,8 @@ Array = NDArray[np.float64]
 
 #: How a failure for two solutions fitting alike begins.
 AMBIGUOUS = "ambiguous arrangement"
+#: How a failure for a pose its few verified openings leave loose begins.
+LOOSE = "loose pose"
 
 
 @dataclass(frozen=True)
@@ -160,13 +164,28 @@ class MatchParams:
         ``distance_tolerance_m`` and ``centre_gate_m`` times this, and its solution is
         taken only when the raw recess points verify it: an exterior TLS seeing deep
         reveals from below puts opening centres 0.2-0.5 m off (sills hidden, no glass
-        return so the pane depth from where the reveals end; church draws 9, 42, 43,
-        registered within 3 mm this way).  1: no second search.
+        return so the pane depth from where the reveals end; church draws 42 and 43,
+        and 9 on the simulator before the per-ray noise, registered within 3 mm this
+        way).  1: no second search.
     max_basin_m
         The recess solution is taken only when the minima reached from displaced starts
         lie within this RMS distance of it over the matched pane centres
         (:attr:`~pyheracles.registration.pane_icp.PaneICPResult.basin_m`): a pose the
         reveals do not fix, or one pulled aside by a splayed reveal, is not unique.
+    max_loose_turn_m
+        A recess solution whose tie points come from ``min_openings`` openings is
+        taken only when the reveals of those verified by their raw points fix every
+        turn about their centre to this where the source cloud's openings are
+        (:func:`~pyheracles.registration.pane_icp.loose_turn`: each opening one
+        observation, the recess ICP's RMS its error; the translations have their own
+        test, ``min_translation_spread``).  The restarts of ``max_basin_m`` displace
+        the translation only, and a turn moving an opening along its own pane normal,
+        or about the line through the openings, is held by the pane depths alone
+        (church draw 9: returned 15.5 cm wrong, loose by 2.5 cm 16 m from its 3
+        openings; draw 24, 3 openings on one wall: 4.6 cm wrong, loose by 7.4 cm;
+        draw 46: right, 0.9 cm).  Solutions on more openings are not re-examined; a loose
+        solution still competes with the others (ambiguity, ranking) and is refused
+        only when it wins, and no looser search follows.
     """
 
     size_tolerance_m: float = 0.1
@@ -195,6 +214,7 @@ class MatchParams:
     min_outline_openings: int = 4
     retry_tolerance_factor: float = 2.0
     max_basin_m: float = 0.005
+    max_loose_turn_m: float = 0.015
 
 
 @dataclass(frozen=True, eq=False)
@@ -553,7 +573,7 @@ def match_openings(
     first = _match(source, target, p)
     if (
         not isinstance(first, str)
-        or first.startswith(AMBIGUOUS)  # two solutions fit: a looser search must not pick one
+        or first.startswith((AMBIGUOUS, LOOSE))  # a looser search must not pick another
         or p.retry_tolerance_factor <= 1
         or p.recess_icp is None
     ):
@@ -682,6 +702,9 @@ def _match(source: list[Opening], target: list[Opening], p: MatchParams) -> Open
             f"{AMBIGUOUS}: two different solutions explain {best[0]} and "
             f"{runner} openings (repeated bays or a mirrored building)"
         )
+    extras = dict(best[6])
+    if extras.pop("loose", ""):  # the best solution, but its openings do not fix it
+        return best[6]["loose"]
     return OpeningMatch(
         T_target_source=best[1],
         pairs=best[2],
@@ -692,7 +715,7 @@ def _match(source: list[Opening], target: list[Opening], p: MatchParams) -> Open
         runner_up=runner,
         n_contradicted=best[5],
         n_mirrored=n_mirrored,
-        **best[6],
+        **extras,
     )
 
 
@@ -700,9 +723,12 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
     """A hypothesis refined on the raw recess points, judged opening by opening.
 
     Returns ``None`` when the refinement leaves the arrangement or does not verify;
-    else ``(n_verified, n_good, T, pairs, rms, local, bad, extras)``.  An opening's
-    verdict comes from its raw points where they decide, else from its outline under
-    the refined transform; the solution is refused when more openings contradict it
+    else ``(n_verified, n_good, T, pairs, rms, local, bad, extras)``, ``extras["loose"]``
+    the one-line reason (beginning with :data:`LOOSE`) when its tie points come from
+    ``min_openings`` openings whose reveals leave a turn loose (``max_loose_turn_m``):
+    it still competes, and is refused only if it wins.  An opening's verdict comes
+    from its raw points where they decide, else from its outline under the refined
+    transform; the solution is refused when more openings contradict it
     than ``max_contradiction`` x those that agree, or when the openings verified by
     their raw points do not fix all three translations.
     """
@@ -784,6 +810,14 @@ def _recess_candidate(S, Tg, pairs, T, p: MatchParams, trees):
     # (church draws 7 and 31, refined poses 3.6 and 5.8 mm off at the panes: the
     # similarity ended 6.8 and 8.1 mm off with them, 4.5 and 6.5 mm without)
     ties = raw if raw.sum() >= p.min_openings else good
+    if ties.sum() == p.min_openings:  # resting on the fewest openings: is every turn fixed?
+        loose, lever = loose_turn(S, Tg, pairs[raw], T, r.rms_m, pi, trees=trees)
+        if loose > p.max_loose_turn_m:
+            extras["loose"] = (
+                f"{LOOSE}: the {raw.sum()} openings verified by their reveals fix it only "
+                f"to {loose * 100:.1f} cm {lever:.0f} m from them "
+                f"({p.max_loose_turn_m * 100:.1f} cm needed)"
+            )
     return n_verified, int(good.sum()), T, pairs[ties], res[ties], loc[ties], bad, extras
 
 

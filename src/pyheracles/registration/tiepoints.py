@@ -38,7 +38,7 @@ from scipy.spatial import cKDTree
 from pyheracles import progress
 from pyheracles.cloud import PointCloud
 from pyheracles.errors import DegenerateGeometryError, EstimationError, InputError
-from pyheracles.registration.pane_matching import MatchParams, OpeningMatch, match_openings
+from pyheracles.registration.pane_matching import LOOSE, MatchParams, OpeningMatch, match_openings
 from pyheracles.registration.panes import Opening, PaneParams, detect_openings
 from pyheracles.registration.points import PointList
 from pyheracles.registration.similarity import (
@@ -127,6 +127,15 @@ class TiePointResult:
             "similarity": self.similarity.to_dict(),
             **self.details,
         }
+
+
+#: What to do when the openings both clouds see are too few to fix the pose.
+_LOOSE_HINT = (
+    "measure targets or control points seen in both clouds (spheres, marks on walls "
+    "seen through a door or window) and give them as tie points (heracles register "
+    "SOURCE TARGET --tiepoints ties.csv), or georeference each cloud on its own control "
+    "points (heracles georef)"
+)
 
 
 # ----------------------------------------------------------------------------- openings
@@ -339,7 +348,9 @@ def find_tie_points(
             f"no trustworthy match of the window openings: {m} "
             f"({len(ops_s)} and {len(ops_t)} openings found)",
             path=source.source,
-            hint="check that both clouds see the same glazed openings, or give manual "
+            hint=_LOOSE_HINT
+            if m.startswith(LOOSE)
+            else "check that both clouds see the same glazed openings, or give manual "
             "tie points (--tiepoints)",
         )
     a_list, b_list = [], []
