@@ -16,10 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.supports.cookies import cookies, extract_support
-from pyheracles.supports.core import SupportParams, scales
 from pyheracles.supports.sparse_faces import SPARSE_GAP_M, runs_on_sparse
-from supports_draws import scored_supports_draw
+from supports_draws import extract_pier_piece, scored_supports_draw
 
 STEP = 0.016  # the cloud's median spacing in draw 34, metres
 HALF = np.array([0.95, 0.31])  # the piece: 1.9 m along the wall, 0.62 m thick
@@ -58,21 +56,7 @@ def _scene(walled: bool, gap: float, rng: np.random.Generator) -> np.ndarray:
 
 def _extract(p: np.ndarray) -> tuple[object, dict]:
     """:func:`extract_support` of the piece's section shape in ``p``."""
-    params = SupportParams()
-    sc = scales(STEP, params)
-    sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": HALF.copy(),
-          "circularity": 1.3}  # fmt: skip
-    sh["buffer"] = max(params.buffer_min_m, params.pier_buffer_fraction * float(HALF.max()))
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
-
-    (idx, rho, ang), = cookies(p, [sh], params)  # fmt: skip
-    kept = extract_support(p, idx, rho, ang, sh, params, sc, H_SEC, (0.0, TOP + 0.5), band)
-    return kept, sh
+    return extract_pier_piece(p, HALF, STEP, H_SEC, (0.0, TOP + 0.5))
 
 
 @pytest.mark.parametrize("seed", SEEDS)

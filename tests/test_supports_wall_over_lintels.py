@@ -16,9 +16,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.supports.cookies import RING_M, cookies, extract_support
+from pyheracles.supports.cookies import RING_M, cookies
 from pyheracles.supports.core import SupportParams, scales
 from pyheracles.supports.profile import carried_surface
+from supports_draws import extract_pier_piece
 
 STEP = 0.03  # point spacing of the synthetic faces, metres
 HALF = np.array([0.25, 0.16])  # the piece: 0.5 m along the wall, 0.32 m thick
@@ -66,21 +67,7 @@ def _scene(over_lintels: bool, rng: np.random.Generator) -> np.ndarray:
 
 def _extract(p: np.ndarray) -> tuple[object, dict]:
     """:func:`extract_support` of the piece's section shape in ``p``."""
-    params = SupportParams()
-    sc = scales(STEP, params)
-    sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": HALF.copy(),
-          "circularity": 1.3}  # fmt: skip
-    sh["buffer"] = max(params.buffer_min_m, params.pier_buffer_fraction * float(HALF.max()))
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
-
-    (idx, rho, ang), = cookies(p, [sh], params)  # fmt: skip
-    kept = extract_support(p, idx, rho, ang, sh, params, sc, H_SEC, (0.0, TOP), band)
-    return kept, sh
+    return extract_pier_piece(p, HALF, STEP, H_SEC, (0.0, TOP))
 
 
 def _carries(p: np.ndarray, sh: dict) -> bool:
