@@ -400,10 +400,10 @@ def loose_turn(
         The loosest turn's motion at the lever (``inf`` when ``pairs`` fix none) and
         the lever, m.
     """
-    R, t = T[:3, :3], T[:3, 3]
-    probes = np.array([o.centre for o in source]) @ R.T + t
     if not len(pairs):
         return float("inf"), 1.0
+    R, t = T[:3, :3], T[:3, 3]
+    probes = np.array([o.centre for o in source]) @ R.T + t
     centre = (np.array([source[i].centre for i in pairs[:, 0]]) @ R.T + t).mean(axis=0)
     lever = max(float(np.sqrt(np.mean(np.sum((probes - centre) ** 2, axis=1)))), 1.0)
     M = motion_moment(source, target, pairs, T, centre, lever, params, trees=trees)
