@@ -79,3 +79,13 @@ def run_cli(args: list[str]) -> dict[str, Any]:
         "exit_code": proc.returncode,
         "stderr_tail": stderr[-500:],
     }
+
+
+def interruptible(main: Any) -> None:
+    """Run a benchmark's ``main()``; Ctrl-C ends it with one line and exit code 130
+    (what was printed before stays whole), not a traceback."""
+    try:
+        main()
+    except KeyboardInterrupt:
+        print("interrupted (Ctrl-C): the output ends at its last complete line", file=sys.stderr)
+        sys.exit(130)

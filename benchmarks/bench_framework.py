@@ -45,7 +45,7 @@ import time
 
 import numpy as np
 
-from _common import emit
+from _common import emit, interruptible
 from pyheracles.beams import segment_beams
 from pyheracles.beams.frame import analyse_frame
 from pyheracles.errors import InputError
@@ -1135,27 +1135,33 @@ def _summarize_files(paths: list[str]) -> None:
     summarize(rows)
 
 
-if __name__ == "__main__":
-    ARGS = _parse_args(sys.argv[1:])
-    if ARGS.summarize:
-        _summarize_files(ARGS.summarize)
-        sys.exit(0)
-    QUICK, SEEDS, SPEED = ARGS.quick, ARGS.seeds, ARGS.speed
-    SWEEP, FIRST_SEED, NOISE_DRAW = ARGS.sweep, ARGS.first_seed, ARGS.noise_draw
+def main() -> None:
+    """The command line (see the module docstring)."""
+    global QUICK, SEEDS, SPEED, SWEEP, FIRST_SEED, NOISE_DRAW
+    args = _parse_args(sys.argv[1:])
+    if args.summarize:
+        _summarize_files(args.summarize)
+        return
+    QUICK, SEEDS, SPEED = args.quick, args.seeds, args.speed
+    SWEEP, FIRST_SEED, NOISE_DRAW = args.sweep, args.first_seed, args.noise_draw
     emit(dataset="machine", metric="load_avg_1min", value=_load(), cpus=os.cpu_count())
     if SWEEP is not None:
         sweep(SWEEP, FIRST_SEED)
-        sys.exit(0)
+        return
     if SEEDS:
         bench_seeds()
-        sys.exit(0)
+        return
     if SPEED:
         speed()
         cli_speed()
-        sys.exit(0)
+        return
     accuracy()
     speed()
     cli_speed()
     normals_vs_open3d()
     region_growing_levels()
     bad_input()
+
+
+if __name__ == "__main__":
+    interruptible(main)

@@ -50,6 +50,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from _common import interruptible
+
 SUPPORT_CLASSES = ("column", "pier", "engaged_column")
 DIM_TOL_M = 0.001
 RMS_TOL_M = 0.01
@@ -403,4 +405,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)
