@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import resource
 import sys
 import time
@@ -81,11 +82,35 @@ def run_cli(args: list[str]) -> dict[str, Any]:
     }
 
 
+INTERRUPTED = "interrupted (Ctrl-C): the output ends at its last complete line"
+
+
 def interruptible(main: Any) -> None:
     """Run a benchmark's ``main()``; Ctrl-C ends it with one line and exit code 130
-    (what was printed before stays whole), not a traceback."""
+    (what was printed before stays whole), not a traceback. An integer that ``main``
+    returns is the exit code."""
     try:
-        main()
+        code = main()
     except KeyboardInterrupt:
-        print("interrupted (Ctrl-C): the output ends at its last complete line", file=sys.stderr)
+        print(INTERRUPTED, file=sys.stderr)
         sys.exit(130)
+    if code:
+        sys.exit(code)
+
+
+def ctrl_c_at_import(kind: type[BaseException], value: BaseException, tb: Any) -> None:
+    """``sys.excepthook`` for a Ctrl-C outside ``main()``: while a benchmark still
+    imports its libraries (Open3D, Dask: seconds on a loaded machine), where
+    `interruptible` cannot catch it. One line and exit code 130; any other error is
+    printed as Python would."""
+    if not issubclass(kind, KeyboardInterrupt):
+        sys.__excepthook__(kind, value, tb)
+        return
+    sys.stdout.flush()
+    print(INTERRUPTED, file=sys.stderr, flush=True)
+    os._exit(130)  # sys.exit inside an excepthook is reported as the hook's own error
+
+
+# Only when a benchmark script is the program (not when a test imports a benchmark).
+if Path(sys.argv[0]).resolve().parent == Path(__file__).resolve().parent:
+    sys.excepthook = ctrl_c_at_import

@@ -39,15 +39,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
+from _common import emit, interruptible, peak_rss_gb, timer
+
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import emit, peak_rss_gb, timer
 from pyheracles.building import segment_building
 from pyheracles.evaluate import evaluate_objects
 from pyheracles.synthetic.buildings import SCENES, building_scene
@@ -205,9 +203,9 @@ def _emit_speed_10m() -> None:
     the issue's 10 s and 2 GB."""
     import tempfile
 
-    import laspy
-
     from _common import run_cli
+
+    import laspy
 
     scene = building_scene("hall", spacing_m=0.0124, noise_m=0.005, rng=0)
     with tempfile.TemporaryDirectory() as tmp:
@@ -458,4 +456,4 @@ def _sweep_summary(lines: list[dict], gen_only: bool, out) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

@@ -25,16 +25,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 import warnings
 from pathlib import Path
 
+from _common import SHARED_DATA, emit, interruptible, peak_rss_gb, timer
+
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import SHARED_DATA, emit, peak_rss_gb, timer
 from pyheracles.bundle import BundleParameters, BundleWarning, bundle_adjust
 from pyheracles.bundle.dbatreport import compare_with_dbat, read_dbat_report
 from pyheracles.bundle.readers import (
@@ -375,4 +373,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

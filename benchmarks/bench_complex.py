@@ -31,17 +31,16 @@ from __future__ import annotations
 import argparse
 import multiprocessing as mp
 import resource
-import sys
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
+from _common import SHARED_DATA, emit, interruptible, timer
+
 import numpy as np
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import SHARED_DATA, emit, timer
 from pyheracles.complex import ComplexParams, prepare_layers, segment_complex
 from pyheracles.evaluate import (
     evaluate_by_feature,
@@ -458,4 +457,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

@@ -43,9 +43,10 @@ import os
 import sys
 import time
 
+from _common import emit, interruptible
+
 import numpy as np
 
-from _common import emit, interruptible
 from pyheracles.beams import segment_beams
 from pyheracles.beams.frame import analyse_frame
 from pyheracles.errors import InputError
@@ -255,9 +256,9 @@ def cli_speed() -> None:
     roofs written as LAS 1.4 LAZ; best of two runs; target 10 s for 1 M points."""
     import tempfile
 
-    import laspy
-
     from _common import run_cli
+
+    import laspy
 
     sizes = [100_000] if QUICK else [100_000, 1_000_000]
     with tempfile.TemporaryDirectory() as tmp:

@@ -30,11 +30,12 @@ import os
 import time
 from pathlib import Path
 
+from _common import SHARED_DATA, emit, interruptible, timer
+
 import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from _common import SHARED_DATA, emit, timer
 from pyheracles.cloud import PointCloud
 from pyheracles.registration.global_registration import (
     GlobalRegistrationParams,
@@ -308,4 +309,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

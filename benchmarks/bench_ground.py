@@ -47,9 +47,10 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from _common import SHARED_DATA, emit, interruptible
+
 import numpy as np
 
-from _common import SHARED_DATA, emit
 from pyheracles.ground import (
     CSFParams,
     auto_csf_params,
@@ -830,4 +831,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

@@ -47,10 +47,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+from _common import interruptible
+
 import numpy as np
 import pandas as pd
-
-from _common import interruptible
 
 SUPPORT_CLASSES = ("column", "pier", "engaged_column")
 DIM_TOL_M = 0.001

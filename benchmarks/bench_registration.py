@@ -16,9 +16,10 @@ from __future__ import annotations
 import os
 import sys
 
+from _common import SHARED_DATA, emit, interruptible, timer
+
 import numpy as np
 
-from _common import SHARED_DATA, emit, timer
 from pyheracles.registration.similarity import (
     ESTIMATORS,
     PARAMETER_NAMES,
@@ -1064,7 +1065,9 @@ SECTIONS = {
     "bunny": bench_bunny,
 }
 
-if __name__ == "__main__":
+
+def main() -> None:
+    """Run the sections named on the command line, a church sweep, or its summary."""
     args = _parse_args(sys.argv[1:])
     if args.summarise:
         import json
@@ -1083,3 +1086,7 @@ if __name__ == "__main__":
     else:
         for name in args.sections or list(SECTIONS):
             SECTIONS[name]()
+
+
+if __name__ == "__main__":
+    interruptible(main)

@@ -25,7 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from _common import emit, timer
+from _common import emit, interruptible, timer
+
 from pyheracles.cli import main as heracles
 from pyheracles.report.html import build_report
 
@@ -85,7 +86,11 @@ def main() -> None:
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "demo"
-        assert heracles(["--quiet", "--no-report", "demo", "-o", str(out)]) == 0
+        code = heracles(["--quiet", "--no-report", "demo", "-o", str(out)])
+        if code == 130:  # the CLI took the Ctrl-C and said so in one line
+            sys.exit(130)
+        if code:
+            sys.exit(f"the demo failed (exit code {code}): run `heracles demo -o demo_out`")
         res = out / "result"
         import pyheracles.complex  # noqa: F401  (as in the demo's own process)
 
@@ -139,4 +144,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

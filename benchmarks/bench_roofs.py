@@ -11,9 +11,10 @@ listed, not modelled.  Prints JSON.
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
+
+from _common import interruptible
 
 import numpy as np
 
@@ -68,4 +69,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    interruptible(main)

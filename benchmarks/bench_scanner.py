@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import argparse
 
+from _common import emit, interruptible, timer
+
 import numpy as np
 
-from _common import emit, timer
 from pyheracles.synthetic.scanner import Outliers, RayCaster, TLSStation, scan
 from pyheracles.synthetic.scene import Scene
 
@@ -105,4 +106,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    interruptible(main)

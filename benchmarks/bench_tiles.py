@@ -36,11 +36,12 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from _common import SHARED_DATA, emit, interruptible, peak_rss_gb
+
 import laspy
 import numpy as np
 import pyogrio
 
-from _common import SHARED_DATA, emit, peak_rss_gb
 from pyheracles.complex import ComplexParams, prepare_layers, segment_complex
 from pyheracles.io import read_cloud, read_layer
 from pyheracles.tiles import run_ground_tiles, run_tiles, split_las
@@ -476,7 +477,8 @@ def single_run(path: str, root: str) -> dict:
             "objects": len(res.segmentation.objects), "peak_rss_gb": peak_rss_gb()}  # fmt: skip
 
 
-if __name__ == "__main__":
+def main() -> None:
+    """Parse the command line and run the chosen benchmark."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("what", choices=["ahn3", "ground", "area"])
     ap.add_argument("--n", type=int, nargs="+", default=[2, 3])
@@ -503,3 +505,7 @@ if __name__ == "__main__":
         ground(a.n, a.workers)
     else:
         area(a)
+
+
+if __name__ == "__main__":
+    interruptible(main)
