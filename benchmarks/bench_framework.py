@@ -498,13 +498,42 @@ def one_face_width_error(o: dict, pts: np.ndarray, dims: dict[str, float]) -> fl
     return abs(dims.get("h", np.inf) - cu["height"])
 
 
-def size_detail(o: dict, cub, pts: np.ndarray) -> dict:
+def face_facet_shares(o: dict, pts: np.ndarray, in_facet: np.ndarray) -> dict[str, float]:
+    """Share of each lateral face's points that the step grew into a facet (diagnostic).
+
+    ``pts``: the member's scanned points, ``in_facet``: whether each lies in a
+    region of the step's facet stage (``BeamResult.facet_labels > 0``).  Faces
+    named as the truth's ``points_per_face`` (``+side``, ``-side``, ``+up``,
+    ``-up``), each point on the face it lies farthest out of the section from
+    (about the member's bent centre line); a face with no point is left out.  A
+    face holding hundreds of points with a share near 0 was never a facet: the
+    box was fitted without it (roof draws: 67 of 82 members seen on two faces
+    and fitted from one, their second face's neighbourhoods reaching over the
+    edge into the first face, the curvature 4-9 times region growing's limit).
+    """
+    cu = o["cuboid"]
+    a, s, h = _member_frame(o, pts)
+    q = np.column_stack([np.abs(s) - 0.5 * cu["width"], np.abs(h) - 0.5 * cu["height"]])
+    k = q.argmax(axis=1)
+    code = 2 * k + (np.where(k == 0, s, h) < 0).astype(int)
+    lateral = np.abs(a) <= 0.5 * cu["length"]
+    out: dict[str, float] = {}
+    for c, name in enumerate(("+side", "-side", "+up", "-up")):
+        on = lateral & (code == c)
+        if on.any():
+            out[name] = round(float(np.mean(in_facet[on])), 2)
+    return out
+
+
+def size_detail(o: dict, cub, pts: np.ndarray, in_facet: np.ndarray | None = None) -> dict:
     """A matched member's size errors side by side (diagnostic, millimetres).
 
     Signed found minus true width ``dw`` and height ``dh``; where each of the
     found box's four sides lies against the true one (``side_lo``/``side_hi``
     along the member's ``side``, ``up_lo``/``up_hi`` along ``up``, positive
-    outwards); the true bend and twist; the points per true face.
+    outwards); the true bend and twist; the points per true face; with
+    ``in_facet`` (per point of ``pts``), the share of each face's points grown
+    into a facet (:func:`face_facet_shares`, ``in_facet_share``).
     """
     cu = o["cuboid"]
     side, up = np.asarray(cu["side"]), np.asarray(cu["up"])
@@ -523,6 +552,8 @@ def size_detail(o: dict, cub, pts: np.ndarray) -> dict:
     out["per_face"] = o.get("points_per_face", {})
     out["obs"] = [bool(b) for b in observable_sizes(o, pts)]
     out["len_ratio"] = round(cub.length / cu["length"], 3)
+    if in_facet is not None:
+        out["in_facet_share"] = face_facet_shares(o, pts, in_facet)
     return out
 
 
@@ -557,6 +588,7 @@ def member_scores(sim, result) -> dict:
     pred = result.labels[good]
     cls = res.class_id[good]
     xyz = res.xyz[good]
+    in_facet = result.facet_labels[good] > 0
     n_pred = len(result.beams)
     cont = np.zeros((n_pred + 1, n_mem + 1), np.int64)
     np.add.at(cont, (pred, truth), 1)
@@ -619,7 +651,12 @@ def member_scores(sim, result) -> dict:
     fv = f1[vis]
     size_members = [
         dict(
-            size_detail(objs[j], result.beams[match[j] - 1], xyz[truth == j + 1]),
+            size_detail(
+                objs[j],
+                result.beams[match[j] - 1],
+                xyz[truth == j + 1],
+                in_facet[truth == j + 1],
+            ),
             member=int(j) + 1,
             err_mm=round(1000 * float(np.nan_to_num(size_err[j], nan=face_width_err[j])), 1),
         )
