@@ -329,9 +329,7 @@ def detect_supports_checked(
             f"{arcs} pier candidate{'s' if arcs > 1 else ''} on the surface of a column "
             "found beside (an arc of its ring): joined to it"
         )
-    # a column carries what it reaches (cookies.reaches_carried): a pulpit's post under
-    # the rim of its tub or a ceiling far above it carries nothing
-    thin = thin_free_columns(rows, [m[4] for m in members])
+    thin = thin_free_columns(rows, [m[1] for m in members])
     if thin:
         notes.append(
             f"{len(thin)} round candidate{'s' if len(thin) > 1 else ''} carrying nothing and "
@@ -341,9 +339,7 @@ def detect_supports_checked(
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
     carries, tops, covers, reach, sparse = ([m[j] for m in members] for j in (1, 2, 3, 4, 5))
-    low = low_carriers(rows, carries, tops, sparse, reach) | covered_free_columns(
-        rows, reach, covers
-    )
+    low = low_carriers(rows, carries, tops, sparse) | covered_free_columns(rows, reach, covers)
     if low:
         notes.append(
             f"{len(low)} candidate{'s' if len(low) > 1 else ''} ending lower than "
@@ -471,10 +467,7 @@ def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
     radius of the thickest column that carries, or, when none carries (a roofless
     ruin), of the thickest column (draw 17: the stems of pulpits, 0.12 m, among broken
     columns of 1.2 m).  Radii of the cylinders of the section's shaft points
-    (``cylinder_radius_m``) where the rows have them: the rule was set on those.
-    ``carries``: whether each carries what it reaches
-    (:func:`~pyheracles.supports.cookies.reaches_carried`; draw 7: a pulpit's post,
-    0.12 m, ending 1.2 m under the ceiling it "carried", beside columns of 0.62 m)."""
+    (``cylinder_radius_m``) where the rows have them: the rule was set on those."""
     radius = [r.get("cylinder_radius_m", r["radius_m"]) for r in rows]
     carried = [x for r, x, c in zip(rows, radius, carries, strict=True)
                if c and r["class"] == "column" and np.isfinite(x)]  # fmt: skip
@@ -507,7 +500,6 @@ def low_carriers(
     carries: list[bool],
     carried_z: list[float],
     sparse: list[bool] | None = None,
-    reaches: list[bool] | None = None,
 ) -> set[int]:
     """Indices of the columns, of the piers found in the thick section only
     (``sparse``) and, in a ruin, of the piers that carry something, that end below the
@@ -534,13 +526,7 @@ def low_carriers(
     3.9 m tall), not by its points when it carries nothing: its top may be shadowed
     (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
     building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
-    m tall cut at 4.1 m).  In a standing building a column that carries what it does
-    not reach (``reaches``, :func:`~pyheracles.supports.cookies.reaches_carried`) is
-    judged by its own top: a pulpit's post ending 1.8-2.3 m under the ceiling over it
-    (draws 12 and 16); in a ruin by what it carries, as before (draw 6: a broken column
-    4.3 m tall inside a scaffold whose deck is at 6.9 m), and so is a pier (draw 32: the
-    piers of an arcade end where their arches spring, 0.7 of the way up to the
-    ceiling)."""
+    m tall cut at 4.1 m)."""
     levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
     if len(levels) >= MIN_CARRYING:
         level = float(np.median(levels))
@@ -560,8 +546,6 @@ def low_carriers(
         if not judged or not (c or standing):
             continue
         top = t if c and np.isfinite(t) else float(r["z_max"])
-        if standing and r["class"] == "column" and reaches is not None and not reaches[k]:
-            top = float(r["z_max"])  # what it does not reach it does not carry
         if top - float(r["z_min"]) < LOW_CARRY_SHARE * (level - float(r["z_min"])):
             out.add(k)
     return out
