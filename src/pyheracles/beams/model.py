@@ -89,6 +89,11 @@ class BeamParams:
         a facet): a convex straight band at least twice ``min_elongation``
         times as long as wide, with the depth behind it read from its side
         points when there are any (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`).
+    sparse_faces
+        Grow regions again, with fewer neighbours, on the sparse parts of the
+        cloud that no facet took (a far slope's narrow faces scanned at 1.5-3 cm,
+        where ``region.k`` neighbours reach round the faces' edges:
+        :mod:`pyheracles.beams.sparse_faces`).
     frame_only
         Keep only the beams that are members of the frame
         (:func:`~pyheracles.beams.frame.frame_members` with the default
@@ -115,6 +120,7 @@ class BeamParams:
     surface_tolerance_m: float | None = None
     thin_spacing_m: float | None = 0.008
     one_face: bool = True
+    sparse_faces: bool = True
     frame_only: bool = True
 
     def validate(self) -> BeamParams:

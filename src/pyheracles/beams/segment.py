@@ -29,6 +29,7 @@ from pyheracles.beams.frame import FrameParams, frame_members
 from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
+from pyheracles.beams.sparse_faces import SparseFaceParams, with_sparse_regions
 from pyheracles.beams.surfaces import (
     cuboid_contacts,
     resting_loose,
@@ -459,10 +460,17 @@ def segment_beams(
             curvature_max=(region_p.curvature_max if region_p.curvature_max is not None else curv),
         )
     sub = region_growing(sub_xyz, region_p, tree=sub_tree)
+    sub_labels, sub_normals, sub_curv = sub.labels, sub.normals, sub.curvature
+    if p.sparse_faces:
+        # sparse parts no facet took (a far slope's narrow faces, where k neighbours
+        # reach round the edges): grown again with fewer neighbours
+        sub_labels, sub_normals, sub_curv = with_sparse_regions(
+            arr, tree, spacing, cand, sub, gen, SparseFaceParams()
+        )
     regions = Regions(
-        labels=scatter(sub.labels, cand, len(arr)),
-        normals=scatter(sub.normals, cand, len(arr)),
-        curvature=scatter(sub.curvature, cand, len(arr)),
+        labels=scatter(sub_labels, cand, len(arr)),
+        normals=scatter(sub_normals, cand, len(arr)),
+        curvature=scatter(sub_curv, cand, len(arr)),
         params=sub.params,
     )
     timings["facets"] = time.perf_counter() - t0
