@@ -12,6 +12,7 @@ from pyheracles.beams.bands import edge_line_direction
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.grouping import UnionFind
 from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
+from pyheracles.beams.piece_joins import PieceFace, same_face
 from pyheracles.beams.sections import Bow, centre_line_bow, face_edges
 from pyheracles.errors import DegenerateGeometryError
 
@@ -401,7 +402,12 @@ def thinner_than(cub: BeamCuboid, min_width: float) -> bool:
 
 
 def join_pieces(
-    beams: list[BeamCuboid], cos_par: float, max_gap: float, max_shadow: float = 0.0
+    beams: list[BeamCuboid],
+    cos_par: float,
+    max_gap: float,
+    max_shadow: float = 0.0,
+    faces: list[PieceFace | None] | None = None,
+    plane_tol: float = 0.01,
 ) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
     """Join the cuboids that are pieces of one beam along their common axis.
 
@@ -413,7 +419,13 @@ def join_pieces(
     line, at most ``max_gap`` apart, or up to ``max_shadow`` with one located
     section) are joined, repeatedly: the joined
     cuboid keeps the section and axis of the piece seen on more faces (then
-    the longer one) and spans both pieces along that axis.
+    the longer one) and spans both pieces along that axis.  With ``faces``
+    (:func:`~pyheracles.beams.piece_joins.piece_faces` of ``beams``), two
+    pieces seen on one face that show the same face
+    (:func:`~pyheracles.beams.piece_joins.same_face`, planes within
+    ``plane_tol`` metres) are joined up to ``max_shadow`` apart too (no more
+    than the longer piece's length): their sections, measured behind one face,
+    need not agree.
 
     Returns
     -------
@@ -424,6 +436,18 @@ def join_pieces(
     """
     out = list(beams)
     ids = list(range(len(beams)))  # current cuboid of each input cuboid
+    face_of: list[PieceFace | None] = list(faces) if faces is not None else [None] * len(out)
+
+    def one_member(i: int, j: int) -> bool:
+        a, b = out[i], out[j]
+        if collinear(a, b, cos_par, max_gap, max_shadow):
+            return True
+        gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
+        return bool(
+            gap <= min(max_shadow, max(a.length, b.length))
+            and same_face(a, b, face_of[i], face_of[j], cos_par, plane_tol)
+        )
+
     joined = True
     while joined:
         joined = False
@@ -439,10 +463,11 @@ def join_pieces(
         near &= np.abs(axes @ axes.T) >= cos_par
         for i, j in zip(*np.nonzero(np.triu(near, 1)), strict=True):
             i, j = int(i), int(j)
-            if not collinear(out[i], out[j], cos_par, max_gap, max_shadow):
+            if not one_member(i, j):
                 continue
             a, b = out[i], out[j]
             main = a if axis_evidence(a) >= axis_evidence(b) else b
+            face_of[i] = face_of[i] if main is a else face_of[j]
             ends = np.array(
                 [c.centre + s * 0.5 * c.length * c.axis for c in (a, b) for s in (-1.0, 1.0)]
             )
@@ -455,6 +480,7 @@ def join_pieces(
                 n_facets=a.n_facets + b.n_facets,
             )
             del out[j]
+            del face_of[j]
             ids = [i if k == j else (k - 1 if k > j else k) for k in ids]
             joined = True
             break

@@ -94,6 +94,10 @@ class BeamParams:
         cloud that no facet took (a far slope's narrow faces scanned at 1.5-3 cm,
         where ``region.k`` neighbours reach round the faces' edges:
         :mod:`pyheracles.beams.sparse_faces`).
+    join_faces
+        Join two pieces seen on one face that show one face (the same plane,
+        width and centre line) up to ``max_shadow_m`` apart, as pieces of one
+        member across a shadow (:mod:`pyheracles.beams.piece_joins`).
     frame_only
         Keep only the beams that are members of the frame
         (:func:`~pyheracles.beams.frame.frame_members` with the default
@@ -121,6 +125,7 @@ class BeamParams:
     thin_spacing_m: float | None = 0.008
     one_face: bool = True
     sparse_faces: bool = True
+    join_faces: bool = True
     frame_only: bool = True
 
     def validate(self) -> BeamParams:

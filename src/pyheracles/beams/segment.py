@@ -29,6 +29,7 @@ from pyheracles.beams.frame import FrameParams, frame_members
 from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
+from pyheracles.beams.piece_joins import piece_faces
 from pyheracles.beams.sparse_faces import SparseFaceParams, with_sparse_regions
 from pyheracles.beams.surfaces import (
     cuboid_contacts,
@@ -568,8 +569,14 @@ def segment_beams(
         for i, c in enumerate(cuboids)
     ]
     # pieces of one member whose lengthened ends now meet, or lie apart by a shadow
+    # (two pieces seen on one face: when they show one face, on one line, of one width)
     cuboids, new_id = join_pieces(
-        cuboids, np.cos(np.radians(p.parallel_deg)), p.max_gap_m, p.max_shadow_m
+        cuboids,
+        np.cos(np.radians(p.parallel_deg)),
+        p.max_gap_m,
+        p.max_shadow_m,
+        faces=piece_faces(arr, facets, facet_beam, cuboids) if p.join_faces else None,
+        plane_tol=tol,
     )
     facet_beam = new_id[facet_beam]
     # boxes thinner than any member: facets of a beam grouped with a strip of something else
