@@ -557,7 +557,10 @@ def walled_band_count(
     and one band at its foot hinges on where the floor and its own lowest points were
     seen (supports draw 15: the ground outside a 0.6 m podium, the podium's side joined
     to it by the noise).  Bands of ``FOOT_TO_M - FOOT_FROM_M`` every
-    :data:`BAND_STEP_M` over its whole height each say whether the wall runs on; a
+    :data:`BAND_STEP_M` over its whole height, the last one right under its top, each
+    say whether the wall runs on (over a door and a window beside a building's corner
+    the wall is one with the corner piece in the top 0.5 m only: supports draw 16, where
+    the bands every 0.2 m stopped 0.12 m short of the top and one of them was walled); a
     free pier has none (a respond's back is flush with its wall but is no face it
     shows; a fence runs on its axis, a bench is in one band at most).
     """
@@ -569,7 +572,10 @@ def walled_band_count(
     cell = max(0.05, 3.0 * sc.spacing)
     n_layers = max(1, int(np.ceil(height / cell)))
     both = 0
-    for z0 in np.arange(lo, hi - height + 1e-9, step):  # at most MAX_BANDS bands
+    starts = np.arange(lo, hi - height + 1e-9, step)  # at most MAX_BANDS bands
+    if hi - height - starts[-1] > 1e-6:  # and the band right under its top
+        starts = np.r_[starts, hi - height]
+    for z0 in starts:
         lines = band_wall_lines(
             p, pts, rho, sh, sc, h_sec, (float(z0), float(z0) + height), height_band, n_layers,
             from_end=True,
