@@ -18,9 +18,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.supports.cookies import cookies, walled_band_count
-from pyheracles.supports.core import SupportParams, scales
 from pyheracles.supports.piers import face_lines
+from supports_draws import piece_among_walls, vertical_face, walled_bands_of_piece
 
 STEP = 0.02  # point spacing of the synthetic faces, metres
 HALF = np.array([0.6, 0.4])  # the piece, metres
@@ -29,49 +28,13 @@ H_SEC = 1.9  # the section it was found in, metres
 SEEDS = range(6)  # noise draws of the synthetic scenes
 
 
-def _face(fixed: int, at: float, lo: float, hi: float, z0: float, z1: float) -> np.ndarray:
-    """A vertical face at coordinate ``fixed`` (0: x, 1: y) = ``at``, from ``lo`` to
-    ``hi`` along the other coordinate and ``z0`` to ``z1`` up."""
-    uu, zz = np.meshgrid(np.arange(lo, hi + 1e-9, STEP), np.arange(z0, z1 + 1e-9, STEP))
-    u = uu.ravel()
-    xy = np.c_[np.full(u.size, at), u] if fixed == 0 else np.c_[u, np.full(u.size, at)]
-    return np.c_[xy, zz.ravel()]
-
-
 def _anta(rng: np.random.Generator) -> np.ndarray:
     """The piece's faces from the floor to ``TOP``, a floor and the wall of an anta,
     flush with its face y = -0.4 beyond its low x end over its whole height; nothing
     beyond its high y end."""
     hx, hy = HALF
-    parts = [
-        _face(1, -hy, -hx, hx, 0.0, TOP),
-        _face(1, hy, -hx, hx, 0.0, TOP),
-        _face(0, -hx, -hy, hy, 0.0, TOP),
-        _face(0, hx, -hy, hy, 0.0, TOP),
-        _face(1, -hy, -hx - 2.0, -hx - 0.02, 0.0, TOP),
-    ]
-    fx, fy = np.meshgrid(np.arange(-3.0, 3.0, 0.05), np.arange(-3.0, 3.0, 0.05))
-    parts.append(np.c_[fx.ravel(), fy.ravel(), np.zeros(fx.size)])
-    p = np.vstack(parts)
-    return p + rng.normal(0.0, 0.0035, p.shape)
-
-
-def _walled_bands(p: np.ndarray) -> int:
-    """:func:`walled_band_count` of the piece (centred at the origin along x) from the
-    floor to ``TOP``, found in the section at ``H_SEC``."""
-    params = SupportParams()
-    sc = scales(STEP, params)
-    sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": HALF.copy()}
-    sh["buffer"] = max(params.buffer_min_m, params.pier_buffer_fraction * float(HALF.max()))
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
-
-    (idx, rho, _), = cookies(p, [sh], params)  # fmt: skip
-    return walled_band_count(p, p[idx], rho, sh, sc, H_SEC, (0.0, TOP), band)
+    wall = vertical_face(1, -hy, -hx - 2.0, -hx - 0.02, 0.0, TOP, STEP)
+    return piece_among_walls(HALF, TOP, [wall], STEP, rng)
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -79,7 +42,7 @@ def test_anta_walled_beyond_one_end_stays(seed: int) -> None:
     """A pier at the end of a wall running flush into it (an anta), free beyond its
     other end, is walled in no band (the lines fitted to the faces make no corner of
     the wall's face and the anta's)."""
-    assert _walled_bands(_anta(np.random.default_rng(seed))) == 0
+    assert walled_bands_of_piece(_anta(np.random.default_rng(seed)), HALF, STEP, H_SEC, TOP) == 0
 
 
 def test_face_lines_lie_on_the_faces() -> None:
