@@ -1,4 +1,5 @@
-"""Points sampled on a generated timber member's faces, shared by the beams tests."""
+"""Points sampled on a generated timber member's faces, and the F1 of a found beam against
+a member's points, shared by the beams tests."""
 
 from __future__ import annotations
 
@@ -20,3 +21,14 @@ def surface_points(m, n: int, noise: float, rng: np.random.Generator) -> np.ndar
         + (s * r2)[:, None] * tri[k, 2]
     )
     return pts + rng.normal(0.0, noise, pts.shape)
+
+
+def best_f1(truth: np.ndarray, labels: np.ndarray, member: int) -> float:
+    """Best F1 of a found beam (``labels`` > 0) against the points of ``member`` in
+    ``truth``."""
+    mine = truth == member
+    counts = np.bincount(labels[mine], minlength=labels.max() + 1)
+    if len(counts) < 2 or counts[1:].max() == 0:
+        return 0.0
+    best = int(counts[1:].argmax()) + 1
+    return 2 * counts[best] / (mine.sum() + (labels == best).sum())

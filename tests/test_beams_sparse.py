@@ -20,22 +20,13 @@ from __future__ import annotations
 import numpy as np
 
 from grid_planes import grid_plane
+from member_points import best_f1
 from pyheracles.beams import StraightFacet, segment_beams
 from pyheracles.beams.surfaces import wide_surface_bands
 from pyheracles.beams.thinning import thin_to_spacing
 from pyheracles.geometry.neighbours import build_tree, point_spacing
 
 X, Y, Z = np.eye(3)
-
-
-def _f1(truth: np.ndarray, labels: np.ndarray, member: int) -> float:
-    """Best F1 of a found beam against the points of ``member``."""
-    mine = truth == member
-    counts = np.bincount(labels[mine], minlength=labels.max() + 1)
-    if len(counts) < 2 or counts[1:].max() == 0:
-        return 0.0
-    best = int(counts[1:].argmax()) + 1
-    return 2 * counts[best] / (mine.sum() + (labels == best).sum())
 
 
 def test_thinning_leaves_sparse_parts_whole_and_thins_dense_ones():
@@ -82,8 +73,8 @@ def _near_and_far(rng):
 def test_a_far_sparse_member_keeps_its_points_across_its_faces():
     xyz, truth = _near_and_far(np.random.default_rng(6))
     res = segment_beams(xyz)
-    assert _f1(truth, res.labels, 1) > 0.9
-    assert _f1(truth, res.labels, 2) > 0.9
+    assert best_f1(truth, res.labels, 1) > 0.9
+    assert best_f1(truth, res.labels, 2) > 0.9
 
 
 RAFTER_W, RAFTER_H, SPACING, LENGTH, UNDER = 0.12, 0.105, 0.48, 3.0, 2.5
@@ -124,7 +115,7 @@ def test_coplanar_undersides_of_rafters_side_by_side_are_not_a_wide_surface():
     xyz, truth = _rafters_side_by_side(np.random.default_rng(20))
     res = segment_beams(xyz)
     for i in range(1, 5):
-        assert _f1(truth, res.labels, i) > 0.8
+        assert best_f1(truth, res.labels, i) > 0.8
     # the boarding strips between them are still no members
     assert len(res.beams) == 4
 

@@ -15,21 +15,12 @@ import numpy as np
 import pytest
 
 from grid_planes import grid_plane
+from member_points import best_f1
 from pyheracles.beams import BeamParams, segment_beams
 from pyheracles.beams.sparse_faces import SparseFaceParams, sparse_k, sparse_leftover
 from pyheracles.geometry.neighbours import build_tree, point_spacing
 
 X, Y, Z = np.eye(3)
-
-
-def _f1(truth: np.ndarray, labels: np.ndarray, member: int) -> float:
-    """Best F1 of a found beam against the points of ``member``."""
-    mine = truth == member
-    counts = np.bincount(labels[mine], minlength=labels.max() + 1)
-    if len(counts) < 2 or counts[1:].max() == 0:
-        return 0.0
-    best = int(counts[1:].argmax()) + 1
-    return 2 * counts[best] / (mine.sum() + (labels == best).sum())
 
 
 def test_the_second_pass_takes_as_many_neighbours_over_the_same_radius():
@@ -83,7 +74,7 @@ def _draw8_crop(scan: int):
 def _found(xyz: np.ndarray, truth: np.ndarray, params: BeamParams | None = None) -> int:
     """How many of draw 8's far common rafters a beam takes at F1 >= 0.5."""
     labels = segment_beams(xyz, params).labels
-    return sum(_f1(truth, labels, m) >= 0.5 for m in DRAW8_RAFTERS)
+    return sum(best_f1(truth, labels, m) >= 0.5 for m in DRAW8_RAFTERS)
 
 
 @pytest.mark.slow
