@@ -203,16 +203,19 @@ def detect_supports_checked(
         )
         walls = [p[thick_idx[i.index], :2] for i in thick_islands if i.kind == "wall"]
         wall_tree = cKDTree(np.vstack(walls)) if walls else None
+
+        def free_of_walls(sh: dict) -> bool:
+            """A free shape: no wall of the thick slab at it (a corner, a window frame)."""
+            reach = shape_reach(sh) + 3 * sc.distance
+            return wall_tree is None or not wall_tree.query_ball_point(sh["centre"], reach)
+
         thin_xy = p[sec_idx, :2]
         added = [
             sh
             for sh in thick_shapes
             if sh["class"] in ("column", "pier")
             and clear_of(sh, shapes)
-            and (  # a free ring: no wall of the thick slab at it (a corner, a window frame)
-                wall_tree is None
-                or not wall_tree.query_ball_point(sh["centre"], shape_reach(sh) + 3 * sc.distance)
-            )
+            and free_of_walls(sh)
             and (sh["class"] == "column" or thick_pier(sh, params, thin_xy))
         ]
         for sh in added:
@@ -221,10 +224,7 @@ def detect_supports_checked(
         # 2d. short tight arcs of small rings that the same circle continues above and
         # below (draw 36: twin columns of 0.14 m seen over 40-80 degrees at every height)
         for sh in arc_columns(p, order, z_sorted, h_sec, thick_idx, thick_islands, params):
-            if clear_of(sh, shapes) and (
-                wall_tree is None
-                or not wall_tree.query_ball_point(sh["centre"], sh["radius"] + 3 * sc.distance)
-            ):
+            if clear_of(sh, shapes) and free_of_walls(sh):
                 shapes.append(sh)
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
