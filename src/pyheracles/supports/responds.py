@@ -102,9 +102,13 @@ def responds_on_wall(
 
     The points off the faces are clustered; a cluster that outlines a rectangle standing
     out of a face (:func:`bump_on_face`) whose face runs on beyond both its ends
-    (:func:`face_both_sides`, bins of ``bin_m``) is a pier against the wall, with that
-    face's normal (into the room), offset and noise, as an engaged column has (its wall
-    is cut off its cookie by them).  The rule of
+    (:func:`face_both_sides`, bins of ``bin_m``) and not behind it (:func:`back_open`:
+    a respond's back is one with the wall, in no scanner's view; the piece of a wall
+    between two windows, its far face the wall island's long face and its near face
+    and reveal a cluster off it, has that face behind it: supports draw 13, a bump as
+    deep as the wall) is a pier against the wall, with that face's normal (into the
+    room), offset and noise, as an engaged column has (its wall is cut off its cookie
+    by them).  The rule of
     :func:`~pyheracles.supports.rings.engaged_on_wall` for a rectangle instead of an arc.
     """
     lines, rest = faces
@@ -120,7 +124,9 @@ def responds_on_wall(
                 continue
             around = xy if section_xy is None else section_xy
             face = around[np.abs(around @ n - d) <= tol]
-            if face_both_sides(face, n, bump[1], bump[2], bin_m, rp):
+            if face_both_sides(face, n, bump[1], bump[2], bin_m, rp) and back_open(
+                xy, n, d, bump[1], bump[2], tol, bin_m
+            ):
                 found.append(respond_shape(*bump, n, d, face_rms))
             break
     return found
