@@ -718,7 +718,11 @@ def support_shapes(
                     "class": isl.kind,
                     "centre": isl.center,
                     "radius": isl.radius,
-                    "half": isl.size / 2,
+                    # a column's shape is its circle: an arc seen from one side spans
+                    # less than its diameter (supports draw 22: 1.52 of 2.12 m)
+                    "half": np.array([isl.radius, isl.radius])
+                    if isl.kind == "column"
+                    else isl.size / 2,
                     "angle": isl.angle,
                     "circularity": isl.circularity,
                 }
