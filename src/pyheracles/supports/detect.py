@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
+from pyheracles.supports.antae import end_at_anta
 from pyheracles.supports.arcs import arc_owner
 from pyheracles.supports.clutter import thin_pier
 from pyheracles.supports.cookies import cookies, extract_support
@@ -257,7 +258,7 @@ def detect_supports_checked(
     for k, sh in enumerate(shapes):
         if sh["class"] == "engaged_column":
             sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
-    rounded = thin_piers = 0
+    rounded = thin_piers = antae = 0
     for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
         h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
         kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
@@ -274,6 +275,12 @@ def detect_supports_checked(
                     sh.update(col[0])
                     kept = again
                     rounded += 1
+        if sh["class"] == "pier" and not sh.get("respond", False):
+            # a pier ending a wall: the wall's stub off it, at the step of their faces
+            ended = end_at_anta(kept[0], kept[2], sh, sc.tol)
+            if ended is not None:
+                kept = ended
+                antae += 1
         cidx, crho, cpts = kept
         row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
         off = row.pop("off_shaft", None)  # a bench or a chair touching a column
@@ -317,6 +324,11 @@ def detect_supports_checked(
             f"{thin_piers} pier candidate{'s' if thin_piers > 1 else ''} reaching less than "
             f"the smallest support across in {'their' if thin_piers > 1 else 'its'} layers "
             "(the standards of scaffolds): not supports"
+        )
+    if antae:
+        notes.append(
+            f"{antae} pier{'s' if antae > 1 else ''} ending a wall (anta): cut off "
+            "the wall at the step of their faces"
         )
     if rounded:
         notes.append(
