@@ -28,3 +28,39 @@ def nearest_opening(result, true_object: dict):
             if np.linalg.norm(c - centre) < dist:
                 best, dist = o, float(np.linalg.norm(c - centre))
     return best, dist
+
+
+def wall_crop(seed: int, name: str, noise_draw: int = 0, margin: float = 1.0):
+    """Church draw ``seed`` (``noise_draw``) cut to the stretch of its true wall ``name``:
+    (points within ``margin`` + 1 m of the wall's faces and within ``margin`` of its
+    ends, the true wall, its true windows and doors)."""
+    from pyheracles.synthetic.families import simulate
+
+    sim = simulate("church", seed, exterior_kind="tls", noise_draw=noise_draw)
+    xyz = np.vstack([c.xyz @ sim.transforms[k][:3, :3].T + sim.transforms[k][:3, 3]
+                     for k, c in sim.clouds.items()])  # fmt: skip
+    objs = sim.scene.objects
+    tw = next(o for o in objs if o["class"] == "wall" and o["name"] == name)
+    n, th = np.asarray(tw["outer_plane"]["normal"]), tw["thickness_m"]
+    mid = tw["outer_plane"]["d"] - 0.5 * th
+    p0, p1 = np.asarray(tw["p0"], dtype=float), np.asarray(tw["p1"], dtype=float)
+    length = float(np.linalg.norm(p1 - p0))
+    u = (xyz[:, :2] - p0) @ ((p1 - p0) / length)
+    keep = (np.abs(xyz @ n - mid) < 0.5 * th + margin + 1.0) & (u > -margin)
+    keep &= u < length + margin
+    ops = [o for o in objs if o["class"] in ("window", "door") and o["wall"] == name]
+    return xyz[keep], tw, ops
+
+
+def openings_over(wall, ops: list[dict]) -> list[int]:
+    """Per true window or door of ``ops``, the openings of ``wall`` (a detected
+    :class:`~pyheracles.walls.Wall`) whose centre lies within its width and whose
+    heights overlap its."""
+    out = []
+    for o in ops:
+        bc = np.asarray(o["box_corners_m"])
+        uc = float((bc.mean(axis=0) - wall.origin) @ wall.u_axis)
+        z0, z1 = bc[:, 2].min(), bc[:, 2].max()
+        out.append(sum(abs(0.5 * (q.u_min + q.u_max) - uc) < 0.5 * o["width_m"]
+                       and q.z_max > z0 and q.z_min < z1 for q in wall.openings))  # fmt: skip
+    return out

@@ -32,11 +32,15 @@ Method
    from the wall's foot to its top.  Empty parts of the envelope are openings when
    they are large enough and the points through them lie in the wall (reveals,
    glass, doors' leaves) or beyond it, rather than in front (an occluder's shadow is
-   not an opening).  Openings whose foot is within ``door_step_m`` of a face's foot
-   are doors (from the highest face foot under them: the floor inside above a
-   step down outside), the others windows.  Their edges are refined from each face's points
-   on its plane (stray points inside the opening and mixed pixels off the plane left
-   out), and the opening through the wall is where every face is open.
+   not an opening); holes one above the other whose band holds
+   none of the points a face would have there (a sparse face's stray returns
+   closed across a narrow light) are one hole
+   (:func:`~pyheracles.walls.bands.join_stray_bands`).  Openings whose foot is
+   within ``door_step_m`` of a face's foot are doors (from the highest face foot
+   under them: the floor inside above a step down outside), the others windows.
+   Their edges are refined from each face's points on its plane (stray points
+   inside the opening and mixed pixels off the plane left out), and the opening
+   through the wall is where every face is open.
 5. Joins: the ends of walls that meet are moved to the least-squares
    intersection of the planes meeting there (:func:`intersect_planes`,
    ``intersectMultPlanes``) when within ``snap_m`` (vertex snapping,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.walls.bands import join_stray_bands
 from pyheracles.walls.model import Array, Opening, WallParams
 from pyheracles.walls.openings import (
     face_edge_table,
@@ -154,6 +155,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
     rows = np.arange(shape[1])[None, :]
     env = keep[:, None] & (rows >= bot[:, None]) & (rows <= top[:, None])
     holes = slim_runs(env & ~occ, max(1, int(np.ceil(p.min_opening_m / c))), bot)
+    holes = join_stray_bands(holes, [_raw_cells(ij[face_of == f], shape)
+                                     for f in np.unique(face_of)])  # fmt: skip
     lab, k = ndimage.label(holes)
     openings: list[Opening] = []
     if k:
@@ -493,6 +496,13 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float 
     right = np.minimum.accumulate(np.where(low, idx, 2 * len(idx) + size)[::-1])[::-1]
     between = (idx - left <= size // 2) & (right - idx <= size // 2)
     return np.where(~low & between, wide, near)
+
+
+def _raw_cells(ij: NDArray[np.int64], shape: tuple[int, ...]) -> NDArray[np.bool_]:
+    """Cells ``shape`` of the grid holding a point ``ij`` (no closing)."""
+    out = np.zeros(shape, dtype=bool)
+    out[ij[:, 0], ij[:, 1]] = True
+    return out
 
 
 def _edge_points(ij: NDArray[np.int64], on_plane: NDArray[np.bool_], sl: tuple[slice, ...],
