@@ -32,7 +32,8 @@ Method
    from the wall's foot to its top.  Empty parts of the envelope are openings when
    they are large enough and the points through them lie in the wall (reveals,
    glass, doors' leaves) or beyond it, rather than in front (an occluder's shadow is
-   not an opening); holes one above the other whose band holds
+   not an opening); a hole reaching the envelope's top over most of its columns is
+   open to the top, not enclosed, and holes one above the other whose band holds
    none of the points a face would have there (a sparse face's stray returns
    closed across a narrow light) are one hole
    (:func:`~pyheracles.walls.bands.join_stray_bands`).  Openings whose foot is

@@ -181,6 +181,8 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                 continue
             if sl[0].start == 0 or sl[0].stop == nu or sl[1].stop >= shape[1]:
                 continue  # open to the wall's end or top: not enclosed
+            if _open_above(region, sl, top):
+                continue  # under the envelope's top, raised by a few strays above
             at_foot = bool(np.any(sl[1].start <= bot[sl[0]] + 1))
             # a face's foot is a floor (inside) or the ground (outside) unless it stands
             # over the wall's foot by more than max_floor_rise_m: a clerestory's outer
@@ -496,6 +498,23 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float 
     right = np.minimum.accumulate(np.where(low, idx, 2 * len(idx) + size)[::-1])[::-1]
     between = (idx - left <= size // 2) & (right - idx <= size // 2)
     return np.where(~low & between, wide, near)
+
+
+def _open_above(region: NDArray[np.bool_], sl: tuple[slice, ...], top: NDArray[np.int64]) -> bool:
+    """Whether a hole ``region`` (its box ``sl`` in the grid) reaches the envelope's
+    ``top`` (row per column) over most of its columns: no face covers it there, and it
+    is open to the top, not enclosed.
+
+    The envelope's top is the highest covered cell of each column, raised over 0.3 m
+    around it: a few returns above a wall's top (mixed pixels at its coping, the eaves'
+    returns on its plane) raise it over a stretch, and the empty band between the wall's
+    top and them was a window (church draw 23: 0.3 x 0.46 m on the north wall's top;
+    draw 6: 0.25 x 0.8 m on the east gable).
+    """
+    has = region.any(axis=1)
+    hi = sl[1].start + region.shape[1] - 1 - np.argmax(region[:, ::-1], axis=1)
+    cols = np.arange(sl[0].start, sl[0].stop)
+    return bool(np.mean(hi[has] >= top[cols[has]]) > 0.5)
 
 
 def _raw_cells(ij: NDArray[np.int64], shape: tuple[int, ...]) -> NDArray[np.bool_]:
