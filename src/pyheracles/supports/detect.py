@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -30,6 +31,7 @@ from pyheracles.supports.core import (
 )
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.height import choose_height, dense_extent
+from pyheracles.supports.low_section import low_heights, supports_floor
 from pyheracles.supports.piers import WALL_LINE_GAP_M, in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, describe, implausible
 from pyheracles.supports.responds import respond_island, responds_on_wall
@@ -49,6 +51,9 @@ from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 #: The lower section (supports ending below the automatic one) lies this many times
 #: ``min_free_height_m`` above the floor: every support that counts crosses it.
 LOW_SECTION_FACTOR = 0.8
+#: A column of the thick low section is at most this many times the radius of the
+#: thickest column found in the thin sections and the main thick one.
+LOW_RADIUS_SHARE = 1.25
 #: Thickness of the section that finds the supports too sparse for the thin one, metres
 #: (a column leaning 6 degrees moves 3 cm over it; its outline stays one ring).
 THICK_SECTION_M = 0.3
@@ -176,27 +181,39 @@ def detect_supports_checked(
             f"{'are pieces of walls' if fragments > 1 else 'is a piece of a wall'} (the wall "
             "goes on beside it): not supports"
         )
-    # 2b. a lower section for the supports that end below the first one (broken columns,
-    # stumps of a ruin): at 0.8 x min_free_height_m above the floor, new shapes only
-    h_low = z0 + LOW_SECTION_FACTOR * params.min_free_height_m
-    if params.section_height_m is None and h_sec - h_low >= params.persistence_m:
-        s2, e2 = np.searchsorted(z_sorted, [h_low - sc.thickness / 2, h_low + sc.thickness / 2])
-        low_idx = order[s2:e2]
-        low_islands = section_islands(p[low_idx, :2], params, sc.distance)
-        low_shapes, _ = support_shapes(p[low_idx, :2], low_islands, params, sc, rng, responds=False)
-        for sh in low_shapes:
-            sh["h_sec"] = h_low
-        shapes = dedupe(shapes + low_shapes)
+    # 2b. lower sections for the supports that end below the first one (broken columns,
+    # stumps of a ruin): at 0.8 x min_free_height_m above the floor, and as high above
+    # the floor the supports of the main section stand on when that is a platform (the
+    # ground outside is the cloud's floor; draw 24: broken columns of 1.5-2.1 m on a
+    # platform 0.8 m high, their feet shadowed by its edge), new shapes only
+    main = [sh for sh in shapes if sh["class"] in ("column", "pier", "engaged_column")]
+    z_sup = supports_floor(p, order, z_sorted, main, [shape_reach(sh) for sh in main], z0, h_sec)
+    lows: list[tuple[float, Array]] = []  # per low section: height, plan points
+    if params.section_height_m is None:
+        above = LOW_SECTION_FACTOR * params.min_free_height_m
+        for h_low in low_heights(z0, z_sup, h_sec, above, params.persistence_m):
+            s2, e2 = np.searchsorted(z_sorted, [h_low - sc.thickness / 2, h_low + sc.thickness / 2])
+            low_xy = p[order[s2:e2], :2]
+            lows.append((h_low, low_xy))
+            low_islands = section_islands(low_xy, params, sc.distance)
+            low_shapes, _ = support_shapes(low_xy, low_islands, params, sc, rng, responds=False)
+            if lows[0][0] != h_low:  # on a platform: columns only (its low ruin walls and
+                # the posts of clutter are pier-like islands there: draws 19, 24)
+                low_shapes = [sh for sh in low_shapes if sh["class"] == "column"]
+            for sh in low_shapes:
+                sh["h_sec"] = h_low
+            shapes = dedupe(shapes + low_shapes)
+
     # 2c. a thick section for the supports too sparse for the thin one (a few hundred
     # points on a column far from every station): the same islands on a slab
     # THICK_SECTION_M thick, new shapes clear of every shape found and of the thick
     # slab's walls only (it holds more of the clutter and of the window frames), piers
     # at least min_support_size_m across both ways (draw 8: a 0.3 m pier with 7 points
     # in the thin section; draw 14: two antae with 19 and 24)
-    if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
-        s3, e3 = np.searchsorted(
-            z_sorted, [h_sec - THICK_SECTION_M / 2, h_sec + THICK_SECTION_M / 2]
-        )
+    def thick_at(h: float, thin_xy: Array) -> tuple[list[dict], NDArray[np.intp], list, Callable]:
+        """New shapes of the thick slab about ``h`` (``thin_xy``: the thin section's
+        plan points there), its indices and islands, and its walls' test."""
+        s3, e3 = np.searchsorted(z_sorted, [h - THICK_SECTION_M / 2, h + THICK_SECTION_M / 2])
         thick_idx = order[s3:e3]
         thick_islands = section_islands(p[thick_idx, :2], params, sc.distance)
         thick_shapes, _ = support_shapes(
@@ -210,7 +227,6 @@ def detect_supports_checked(
             reach = shape_reach(sh) + 3 * sc.distance
             return wall_tree is None or not wall_tree.query_ball_point(sh["centre"], reach)
 
-        thin_xy = p[sec_idx, :2]
         added = [
             sh
             for sh in thick_shapes
@@ -221,12 +237,32 @@ def detect_supports_checked(
         ]
         for sh in added:
             sh["sparse"] = True
+        return added, thick_idx, thick_islands, free_of_walls
+
+    if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
+        added, thick_idx, thick_islands, free_of_walls = thick_at(h_sec, p[sec_idx, :2])
         shapes += added
         # 2d. short tight arcs of small rings that the same circle continues above and
         # below (draw 36: twin columns of 0.14 m seen over 40-80 degrees at every height)
         for sh in arc_columns(p, order, z_sorted, h_sec, thick_idx, thick_islands, params):
             if clear_of(sh, shapes) and free_of_walls(sh):
                 shapes.append(sh)
+        # 2e. the thick slab about the low section: broken columns far from every
+        # station (draw 24: 3-11 points in the thin slab, 24-160 in the thick one)
+        # columns only (a thick slab low down holds the boards and posts of clutter), of
+        # the building's columns' size: a broken column is one of them (draw 28: a
+        # ring of 0.7 m in a wall beside columns of 0.23 m)
+        radii = [float(sh["radius"]) for sh in shapes if sh["class"] == "column"]
+        r_max = LOW_RADIUS_SHARE * max(radii, default=0.0)
+        for h_low, low_xy in lows:
+            low_added = [
+                sh
+                for sh in thick_at(h_low, low_xy)[0]
+                if sh["class"] == "column" and float(sh["radius"]) <= r_max
+            ]
+            for sh in low_added:
+                sh["h_sec"] = h_low
+            shapes += low_added
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
     if not shapes:
@@ -476,14 +512,17 @@ THIN_FREE_SHARE = 0.3
 
 def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
     """Indices of the columns carrying nothing thinner than ``THIN_FREE_SHARE`` x the
-    radius of the thickest column that carries, or, when none carries (a roofless
-    ruin), of the thickest column (draw 17: the stems of pulpits, 0.12 m, among broken
-    columns of 1.2 m).  Radii of the cylinders of the section's shaft points
-    (``cylinder_radius_m``) where the rows have them: the rule was set on those."""
+    radius of the thickest column that carries, or, when fewer than
+    :data:`MIN_CARRYING` carry (a roofless ruin), of the thickest column (draw 17: the
+    stems of pulpits, 0.12 m, among broken columns of 1.2 m; draw 19: a pulpit's post
+    carrying its tub was the only column carrying something).  Radii of the cylinders
+    of the section's shaft points (``cylinder_radius_m``) where the rows have them: the
+    rule was set on those."""
     radius = [r.get("cylinder_radius_m", r["radius_m"]) for r in rows]
     carried = [x for r, x, c in zip(rows, radius, carries, strict=True)
                if c and r["class"] == "column" and np.isfinite(x)]  # fmt: skip
-    if not carried:  # a roofless ruin: the thickest column standing, carrying nothing
+    if len(carried) < MIN_CARRYING:  # a roofless ruin: the thickest column standing
+        # (draw 19: the one column carrying something was a pulpit's post under its tub)
         carried = [x for r, x in zip(rows, radius, strict=True)
                    if r["class"] == "column" and np.isfinite(x)]  # fmt: skip
     if not carried:
