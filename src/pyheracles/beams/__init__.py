@@ -51,7 +51,10 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    rounds of ``max_gap_m``; not by normals, noisy where points are few);
    pieces with one located section on one line are joined across a longer
    gap too (``max_shadow_m``: a stretch in the shadow of a nearer member),
-   and boxes thinner than any member (``min_beam_width_m``) are dropped;
+   and boxes thinner than any member (``min_beam_width_m``) are dropped, and
+   so are the boxes fitted to a member's face and the strip of boarding
+   beside it, when the face lies on another beam found apart: the air in
+   that inside corner (:func:`~pyheracles.beams.hull_strips.on_hull_strip`);
    groups of touching beams that all lie on a surface
    (timber stored on the floor) are dropped
    (:func:`~pyheracles.beams.surfaces.resting_loose`), and so are the beams

@@ -27,6 +27,7 @@ from pyheracles.beams.facets import (
 )
 from pyheracles.beams.frame import FrameParams, frame_members
 from pyheracles.beams.grouping import face_runs, group_facets
+from pyheracles.beams.hull_strips import HullStripParams, on_hull_strip
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
 from pyheracles.beams.piece_joins import piece_faces
@@ -600,6 +601,25 @@ def segment_beams(
         dtype=bool,
     )
     cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~behind)
+    # a member's face grouped with the strip of boarding beside it: the box is the
+    # air in that inside corner, the face is the member's found apart
+    corner = np.array(
+        [
+            on_hull_strip(
+                arr,
+                cuboids,
+                i,
+                [f for f, g in zip(facets, facet_beam, strict=True) if g == i + 1],
+                tree,
+                probe,
+                tol,
+                HullStripParams(depth_m=p.max_beam_width_m, parallel_deg=p.parallel_deg),
+            )
+            for i in range(len(cuboids))
+        ],
+        dtype=bool,
+    )
+    cuboids, facet_beam = keep_beams(cuboids, facet_beam, ~corner)
     # timber stored on the floor: it and what it touches lie on a surface going on around
     contacts = cuboid_contacts(cuboids, max(contact, 2.0 * tol))
     loose = resting_loose(tree, cuboids, contacts)

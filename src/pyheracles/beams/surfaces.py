@@ -26,6 +26,7 @@ from pyheracles.beams.model import BeamCuboid, StraightFacet
 
 __all__ = [
     "cuboid_contacts",
+    "hull_strip",
     "plane_occupancy",
     "resting_loose",
     "room_side",
@@ -199,6 +200,34 @@ def seen_from_behind(
         _behind_cover(tree, f, front, depth_m, margin_m) <= max_cover
         and _beside_cover(tree, f, margin_m) >= 1.0 - max_cover
         for f, front in away
+    )
+
+
+def hull_strip(
+    f: StraightFacet,
+    box_centre: NDArray[np.float64],
+    tree: cKDTree,
+    probe: NDArray[np.float64],
+    depth_m: float,
+    margin_m: float = PROUD_MARGIN_M,
+    max_cover: float = 0.2,
+) -> bool:
+    """Whether a facet of a box is a strip of the room's hull (boarding, a wall), box in front.
+
+    The facet has a room's side (:func:`room_side`, ``probe`` a sample of the
+    cloud, ``depth_m`` the deepest member section) and the box's centre lies on
+    it; behind the facet the cloud (``tree``) holds nothing within ``depth_m``
+    (farther than ``margin_m`` from its plane) over more than ``max_cover`` of
+    its length; and its plane goes on past one of its edges over all but
+    ``max_cover`` of it: the tests :func:`seen_from_behind` makes of each face
+    of an inside corner, on one facet.
+    """
+    front = room_side(probe, f.centre, f.normal, depth_m)
+    if front == 0 or np.sign(float((box_centre - f.centre) @ f.normal)) != front:
+        return False
+    return bool(
+        _behind_cover(tree, f, front, depth_m, margin_m) <= max_cover
+        and _beside_cover(tree, f, margin_m) >= 1.0 - max_cover
     )
 
 
