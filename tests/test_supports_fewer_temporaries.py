@@ -1,6 +1,6 @@
 """The whole-cloud passes of step 2a without whole-cloud temporaries (issue 12, speed):
-the cookie-cutter's candidate pass in blocks
-(:func:`~pyheracles.supports.cookies.near_candidates`) and the keys of
+the cookie-cutter's candidate pass (compiled, in blocks of points on threads:
+:func:`~pyheracles.supports.kernels.cookie_candidates`) and the keys of
 :func:`~pyheracles.geometry.sections.sort_order` in place.
 
 Each gives exactly what the plain whole-array expression it replaces gives (checked here
@@ -19,6 +19,7 @@ import pytest
 
 from pyheracles.geometry.sections import sort_order
 from pyheracles.supports import cookies as ck
+from pyheracles.supports import kernels
 from pyheracles.supports.core import SupportParams
 
 
@@ -105,11 +106,12 @@ def _peak_bytes(f: Callable[[], object]) -> int:
         tracemalloc.stop()
 
 
-@pytest.mark.parametrize("block", [64, 1 << 16])
+@pytest.mark.parametrize("threads", ["1", "2", "3"])
 def test_cookies_in_blocks_match_the_whole_cloud_cutter(
-    block: int, monkeypatch: pytest.MonkeyPatch
+    threads: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(ck, "NEAR_BLOCK", block)  # many blocks, a last partial one
+    monkeypatch.setenv("HERACLES_THREADS", threads)  # blocks of points on threads
+    monkeypatch.setattr(kernels, "MIN_BLOCK", 1000)
     p = _cloud(20_000)
     shapes = _shapes()
     got = ck.cookies(p, shapes, SupportParams())
@@ -154,5 +156,6 @@ def test_sort_order_allocates_three_arrays_at_most() -> None:
     the order and the sorted values (25 bytes a point with the check of the order),
     not a float copy, the product, the shift and a copy of the order as well (33)."""
     v = np.random.default_rng(2).uniform(0, 10, 1_000_000)
+    sort_order(v)  # load the compiled sort (pyheracles.geometry.sort_kernels) first
     peak = _peak_bytes(lambda: sort_order(v))
     assert peak <= 27 * len(v), peak / len(v)

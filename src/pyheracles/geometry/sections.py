@@ -17,6 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
+from pyheracles.geometry.sort_kernels import PARALLEL_MIN, sorted_keys, split_keys
+from pyheracles.threads import n_workers
+
 __all__ = [
     "SliceParams",
     "SliceProfile",
@@ -132,10 +135,14 @@ def sort_order(values: NDArray) -> tuple[NDArray[np.intp], NDArray]:
         return order, v[order]
     lo, hi = v.min(), v.max()
     exact = v.dtype.kind in "iu" and int(hi) - int(lo) < 2 ** (62 - bits)
-    key = _sort_keys(v, lo, hi, bits, exact)
-    key.sort()
-    order = (key & ((1 << bits) - 1)).astype(np.intp, copy=False)
-    srt = v[order]
+    if not exact and n >= PARALLEL_MIN and n_workers() > 1:  # on threads, the same keys
+        key = sorted_keys(v, lo, hi, bits)
+        order, srt = split_keys(key, v, bits)
+    else:
+        key = _sort_keys(v, lo, hi, bits, exact)
+        key.sort()
+        order = (key & ((1 << bits) - 1)).astype(np.intp, copy=False)
+        srt = v[order]
     if not exact:  # values that share a quantised key may be swapped
         bad = np.flatnonzero(srt[1:] < srt[:-1])
         if len(bad) > n // 1000:

@@ -4,16 +4,17 @@ clutter off, final clustering."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from pyheracles.geometry.sections import sort_order
 from pyheracles.segment.euclidean import voxel_clusters
 from pyheracles.supports.core import Array, Scales, SupportParams
 from pyheracles.supports.face_rise import face_rise_along_wall
 from pyheracles.supports.floors import foot_floor
+from pyheracles.supports.kernels import REACH_MARGIN_M, cookie_candidates
 from pyheracles.supports.piers import (
     FOOT_FROM_M,
     FOOT_OWN_M,
@@ -39,6 +40,7 @@ from pyheracles.supports.profile import (
     surface_tolerance,
     wall_beside,
 )
+from pyheracles.threads import map_threads
 
 RING_M = 0.3  # width of the ring around a cookie that tells floor and ceiling heights
 #: Half height of the slab around the section where a support's own spacing is measured.
@@ -54,8 +56,10 @@ def cookies(
     """Points within buffer + ring of each shape: (indices, offset rho, angle) per shape.
 
     A point near several shapes (twin columns on one plinth) goes to the one it is
-    closest to, relative to the buffers.  Uses a 2D cell index on the points near any
-    shape only, so the cost is one pass over the cloud plus a sort of a few %.
+    closest to, relative to the buffers.  The candidates of each shape (the points in the
+    cells of side 0.25 m around it, near its outline) come from one compiled pass over the
+    cloud in input order (:func:`~pyheracles.supports.kernels.cookie_candidates`); the
+    offsets and the test that keeps a point are numpy's, on those candidates only.
     """
     cell = 0.25
     x0, y0 = float(p[:, 0].min()), float(p[:, 1].min())
@@ -63,87 +67,68 @@ def cookies(
     width = int((float(p[:, 0].max()) - x0) * (1.0 / cell)) + 1
     height = int((float(p[:, 1].max()) - y0) * (1.0 / cell)) + 1
     xy0 = np.array([x0, y0])
-    near = np.zeros((height, width), dtype=bool)
-    boxes = []
-    for sh in shapes:
+    boxes = np.zeros((len(shapes), 4), dtype=np.int64)
+    for sid, sh in enumerate(shapes):
         reach = float(np.hypot(*sh["half"])) + sh["buffer"] + RING_M
         lo = np.maximum(np.floor((sh["centre"] - reach - xy0) / cell).astype(int), 0)
         hi = np.minimum(
             np.floor((sh["centre"] + reach - xy0) / cell).astype(int), [width - 1, height - 1]
         )
-        near[lo[1] : hi[1] + 1, lo[0] : hi[0] + 1] = True
-        boxes.append((lo, hi))
-    cand, cand_keys = near_candidates(p, near, xy0, cell)
-    srt, ksorted = sort_order(cand_keys)
-    korder = cand[srt]
+        boxes[sid] = (*lo, *hi)
+    cands = cookie_candidates(p, (x0, y0), cell, (height, width), boxes, *outline_table(shapes))
+
+    def within(sid: int) -> tuple[NDArray[np.intp], Array, Array]:
+        """The candidates of shape ``sid`` within its buffer + ring, offsets, angles."""
+        sh, idx = shapes[sid], cands[sid]
+        rho, ang = offset(np.take(p, idx, axis=0)[:, :2], sh)
+        keep = rho <= sh["buffer"] + RING_M
+        return idx[keep], rho[keep], ang[keep]
+
     sid_l, idx_l, rho_l, ang_l = [], [], [], []
     # cookies holding each point: one byte unless there are 256 shapes or more
     n_cookies = np.zeros(len(p), dtype=np.uint8 if len(shapes) < 256 else np.int32)
-    for sid, (sh, (lo, hi)) in enumerate(zip(shapes, boxes, strict=True)):
-        rows = np.arange(lo[1], hi[1] + 1) * width  # grid rows of one support
-        a = np.searchsorted(ksorted, rows + lo[0], side="left")
-        b = np.searchsorted(ksorted, rows + hi[0], side="right")
-        parts = [korder[i:j] for i, j in zip(a, b, strict=True)]
-        idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
-        rho, ang = offset(np.take(p, idx, axis=0)[:, :2], sh)
-        keep = rho <= sh["buffer"] + RING_M
-        n_cookies[idx[keep]] += 1  # the indices of one cookie are distinct
-        sid_l.append(np.full(keep.sum(), sid))
-        idx_l.append(idx[keep])
-        rho_l.append(rho[keep])
-        ang_l.append(ang[keep])
+    # numpy's arithmetic on a cookie's points releases the interpreter: shapes on threads
+    for sid, (idx, rho, ang) in enumerate(map_threads(within, range(len(shapes)))):
+        n_cookies[idx] += 1  # the indices of one cookie are distinct
+        sid_l.append(np.full(len(idx), sid))
+        idx_l.append(idx)
+        rho_l.append(rho)
+        ang_l.append(ang)
     sid_all, idx_all = np.concatenate(sid_l), np.concatenate(idx_l)
     rho_all, ang_all = np.concatenate(rho_l), np.concatenate(ang_l)
     # a point in several cookies goes to the shape it is closest to (relative to the
     # buffers); only those few points are sorted
     shared = np.flatnonzero(n_cookies[idx_all] > 1)
-    keep = np.ones(len(idx_all), dtype=bool)
     if len(shared):
+        keep = np.ones(len(idx_all), dtype=bool)
         bufs = np.array([sh["buffer"] for sh in shapes])
         srt = shared[np.lexsort((rho_all[shared] / bufs[sid_all[shared]], idx_all[shared]))]
         first = np.r_[True, idx_all[srt][1:] != idx_all[srt][:-1]]
         keep[srt[~first]] = False
-    sid_all, idx_all, rho_all, ang_all = sid_all[keep], idx_all[keep], rho_all[keep], ang_all[keep]
+        sid_all, idx_all = sid_all[keep], idx_all[keep]
+        rho_all, ang_all = rho_all[keep], ang_all[keep]
     bounds = np.r_[0, np.cumsum(np.bincount(sid_all, minlength=len(shapes)))]
-    out = []
-    for sid in range(len(shapes)):  # still grouped by shape; each cookie in input order
-        sel = slice(bounds[sid], bounds[sid + 1])
-        srt, idx = sort_order(idx_all[sel])
-        out.append((idx, rho_all[sel][srt], ang_all[sel][srt]))
-    return out
+    # grouped by shape, each cookie in input order (its candidates were)
+    return [(idx_all[a:b], rho_all[a:b], ang_all[a:b]) for a, b in pairwise(bounds)]
 
 
-#: Points per block of :func:`near_candidates`: its temporaries stay in the cache.
-NEAR_BLOCK = 1 << 16
-
-
-def near_candidates(
-    p: Array, near: NDArray[np.bool_], xy0: Array, cell: float
-) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
-    """Indices (ascending) and cell keys ``row * width + column`` of the points of ``p``
-    whose cell of side ``cell`` (from ``xy0``) is marked in ``near`` (rows along y).
-
-    The one pass over the whole cloud of :func:`cookies`, in blocks of ``NEAR_BLOCK``
-    points: the same cell arithmetic as on the whole cloud at once, but without its
-    five temporaries of ``len(p)`` values (on 10 M points their allocation and page
-    faults cost more CPU than the arithmetic).
-    """
-    flat = near.ravel()
-    width = near.shape[1]
-    inv = 1.0 / cell
-    x0, y0 = float(xy0[0]), float(xy0[1])
-    idx_l, key_l = [], []
-    for s in range(0, len(p), NEAR_BLOCK):
-        q = p[s : s + NEAR_BLOCK]
-        ci = ((q[:, 0] - x0) * inv).astype(np.int64)  # floor: values are >= 0
-        cj = ((q[:, 1] - y0) * inv).astype(np.int64)
-        keys = cj * width + ci
-        hit = flat[keys]
-        idx_l.append(np.flatnonzero(hit) + s)
-        key_l.append(keys[hit])
-    if not idx_l:
-        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.int64)
-    return np.concatenate(idx_l), np.concatenate(key_l)
+def outline_table(shapes: list[dict]) -> tuple[Array, NDArray[np.bool_]]:
+    """The shapes' outlines for :func:`~pyheracles.supports.kernels.cookie_candidates`:
+    ``(cx, cy, (radius + reach)**2, cos, sin, half_u, half_v, reach)`` per shape (reach =
+    buffer + ring + a margin of rounding) and whether each is round (offset as in
+    :func:`offset`)."""
+    table = np.zeros((len(shapes), 8))
+    round_ = np.zeros(len(shapes), dtype=bool)
+    for k, sh in enumerate(shapes):
+        round_[k] = sh["class"] in ("column", "engaged_column")
+        angle = 0.0 if round_[k] else float(sh["angle"])
+        table[k, :2] = sh["centre"]
+        reach = sh["buffer"] + RING_M + REACH_MARGIN_M
+        table[k, 2] = (sh["radius"] + reach) ** 2 if round_[k] else 0.0
+        table[k, 3:5] = np.cos(angle), np.sin(angle)
+        table[k, 5:7] = (0.0, 0.0) if round_[k] else sh["half"]
+        table[k, 7] = reach
+    return table, round_
 
 
 def floor_level(pts: Array, ring: NDArray[np.bool_], h_sec: float, z_min: float) -> float:

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from pyheracles.segment.euclidean import relabel_by_size
 from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.kernels import occupied_cells, slab_components, slab_keys
 from pyheracles.supports.sections import island_kind
 
 # The 12 "forward" offsets of the 5 x 5 cell neighbourhood: with cells of half the
 # clustering distance, only these cells can hold points within that distance.
 LINKS = tuple((di, dj) for di in range(3) for dj in range(-2, 3) if (di, dj) > (0, 0))
+LINK_STEPS = np.array(LINKS, dtype=np.int64)
 
 
 DENSE_CELLS = 8_000_000  # larger grids use a sort per slab instead of a dense scatter
@@ -94,20 +94,15 @@ class SlabGrid:
     """
 
     def __init__(self, xyz: Array, idx: NDArray[np.intp], cell: float) -> None:
-        self.x = xyz[:, 0][idx] if len(idx) else np.zeros(0)
-        self.y = xyz[:, 1][idx] if len(idx) else np.zeros(0)
+        self.x, self.y = np.zeros(0), np.zeros(0)
         self.cell = cell
         self.ny, self.ncells = 1, 0
         self.key = np.zeros(0, dtype=np.int64)
         if len(idx):
-            x0, y0 = float(self.x.min()), float(self.y.min())
-            # floor (values >= 0), plus a margin of two empty cells on every side: the
-            # neighbours of an occupied cell are always inside the grid, never wrapped
-            ci = ((self.x - x0) * (1.0 / cell)).astype(np.int64) + 2
-            cj = ((self.y - y0) * (1.0 / cell)).astype(np.int64) + 2
-            self.ny = int(cj.max()) + 3
-            self.ncells = (int(ci.max()) + 3) * self.ny
-            self.key = ci * self.ny + cj
+            # floor from the lowest x and y (values >= 0), plus a margin of two empty cells
+            # on every side: the neighbours of an occupied cell are always inside the
+            # grid, never wrapped (one compiled gather and pass: slab_keys)
+            self.x, self.y, self.key, self.ny, self.ncells = slab_keys(xyz, idx, cell)
         self.dense = 0 < self.ncells <= DENSE_CELLS
         if self.dense:  # a cell -> occupied-cell-number table, reset after each slab
             self.ids = np.full(self.ncells, -1, dtype=np.int32)
@@ -117,19 +112,7 @@ class SlabGrid:
         if not self.dense:
             cells, inv = np.unique(k, return_inverse=True)
             return cells, inv.ravel()
-        self.ids[k] = 0
-        cells = np.flatnonzero(self.ids == 0)
-        self.ids[cells] = np.arange(len(cells))
-        return cells, self.ids[k]
-
-    def _lookup(self, cells: NDArray[np.int64], di: int, dj: int) -> NDArray[np.int64]:
-        """Number of the occupied cell at offset ``(di, dj)`` of each cell, -1 if none."""
-        nb = cells + (di * self.ny + dj)
-        if self.dense:
-            return self.ids[nb]
-        pos = np.minimum(np.searchsorted(cells, nb), len(cells) - 1)
-        pos[cells[pos] != nb] = -1
-        return pos
+        return occupied_cells(k, self.ids)
 
     def support_islands(self, s: int, e: int, params: SupportParams) -> tuple[Array, Array]:
         """Centres ``(K, 2)`` and lengths ``(K,)`` of the support islands of points ``s:e``."""
@@ -137,24 +120,11 @@ class SlabGrid:
         if e - s < params.min_points:
             return none
         cells, inv = self._cells(self.key[s:e])
-        m = len(cells)
-        n_in = np.bincount(inv, minlength=m)
-        px = np.bincount(inv, self.x[s:e], minlength=m) / n_in
-        py = np.bincount(inv, self.y[s:e], minlength=m) / n_in
-        src, dst = [], []
-        for di, dj in LINKS:  # 12 vectorised look-ups, not a loop over cells
-            pos = self._lookup(cells, di, dj)
-            hit = np.flatnonzero(pos >= 0)
-            # linked when the cells' centroids are within the clustering distance
-            d2 = (px[hit] - px[pos[hit]]) ** 2 + (py[hit] - py[pos[hit]]) ** 2
-            close = d2 <= (2 * self.cell) ** 2
-            src.append(hit[close])
-            dst.append(pos[hit][close])
-        if self.dense:
-            self.ids[cells] = -1
-        a, b = np.concatenate(src), np.concatenate(dst)
-        graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(m, m))
-        lab = relabel_by_size(connected_components(graph, directed=False)[1], params.min_points)
+        # cells linked when their centroids are within the clustering distance
+        comp, px, py = slab_components(
+            cells, inv, self.x[s:e], self.y[s:e], self.ny, LINK_STEPS, (2 * self.cell) ** 2
+        )
+        lab = relabel_by_size(comp, params.min_points)
         keep = lab > 0
         if not keep.any():
             return none
