@@ -44,6 +44,15 @@ def timer() -> Iterator[Timer]:
         t.s = time.perf_counter() - start
 
 
+def cpu_s() -> float:
+    """CPU seconds of this process and of its ended children so far: the supports step
+    measures some supports and slabs in a forked child (:mod:`pyheracles.forks`), whose
+    CPU time ``time.process_time`` does not count."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def peak_rss_gb() -> float:
     """Peak resident memory of this process so far, GB."""
     kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from pyheracles.cloud import PointCloud, all_finite
 from pyheracles.errors import InputError
+from pyheracles.forks import ForkedCall
 from pyheracles.geometry.sections import SliceParams, SliceProfile, slice_profile, sort_order
 from pyheracles.labels import Segmentation
 from pyheracles.resources import check_spread
@@ -505,14 +506,11 @@ def _segment_building(
     need = max(MIN_BUILDING_POINTS, (supports or SupportParams()).min_points)
     cloud = prepare_building(xyz, prep, source=source, step="supports", min_points=need)
     order, z_sorted = sort_order(cloud.xyz[:, 2])  # one sort of N points for all steps
-    split = (
-        attic_split(cloud.xyz, attic, z_order=order, z_sorted=z_sorted)
+    # the attic split needs nothing of the supports: a forked child computes it meanwhile
+    attic_call = (
+        ForkedCall(lambda: attic_split(cloud.xyz, attic, z_order=order, z_sorted=z_sorted))
         if split_attic
-        else AtticSplit(
-            np.zeros(len(cloud.xyz), dtype=bool),
-            None,
-            SliceProfile(*[np.zeros(0)] * 3, np.zeros(0, dtype=np.int64)),
-        )
+        else None
     )
     # The section is searched in the whole cloud, and the supports are cut out of it, so
     # that each keeps its full height up to what it carries, whatever the attic split
@@ -521,6 +519,15 @@ def _segment_building(
     # body below it, the section fell among the plinths).  A roof space holds few
     # persistent support islands and the height search does not choose it.
     found = detect_supports_checked(cloud.xyz, supports, None, order, z_sorted)
+    split = (
+        attic_call.result()
+        if attic_call is not None
+        else AtticSplit(
+            np.zeros(len(cloud.xyz), dtype=bool),
+            None,
+            SliceProfile(*[np.zeros(0)] * 3, np.zeros(0, dtype=np.int64)),
+        )
+    )
     full = found.instance
     attic_mask = split.attic & (full == 0)
     if split.has_attic and (n_up := int(np.count_nonzero(split.attic & (full > 0)))):

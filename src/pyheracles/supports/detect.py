@@ -13,10 +13,9 @@ from scipy.spatial import cKDTree
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
-from pyheracles.supports.antae import end_at_anta
 from pyheracles.supports.arcs import arc_owner
 from pyheracles.supports.clutter import thin_pier
-from pyheracles.supports.cookies import cookies, extract_support
+from pyheracles.supports.cookies import cookies
 from pyheracles.supports.core import (
     MAX_SECTION_SHARE,
     Array,
@@ -32,8 +31,9 @@ from pyheracles.supports.core import (
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.low_section import low_heights, supports_floor
+from pyheracles.supports.measure import measure_supports
 from pyheracles.supports.piers import WALL_LINE_GAP_M, in_wall_line, wall_alongside, wall_fragment
-from pyheracles.supports.primitives import dedupe, describe, implausible
+from pyheracles.supports.primitives import dedupe, implausible
 from pyheracles.supports.responds import respond_island, responds_on_wall
 from pyheracles.supports.ring_heights import arc_columns
 from pyheracles.supports.rings import (
@@ -44,7 +44,6 @@ from pyheracles.supports.rings import (
     wall_face_beside,
     wall_face_lines,
 )
-from pyheracles.supports.round_shaft import column_again
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 
 # ------------------------------------------------------------------------------ main
@@ -295,30 +294,15 @@ def detect_supports_checked(
         if sh["class"] == "engaged_column":
             sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
     rounded = thin_piers = antae = 0
-    for sh, (idx, rho, ang) in zip(shapes, cut, strict=True):  # loop over supports
-        h_own = sh.get("h_sec", h_sec)  # the section the shape was found in
-        kept = extract_support(p, idx, rho, ang, sh, params, sc, h_own, (z0, z1), band)
-        if kept is None:
+    # the points and primitive of each support (on two processes: measure_supports)
+    measured = measure_supports(p, shapes, cut, params, sc, h_sec, (z0, z1), band)
+    for sh, m in zip(shapes, measured, strict=True):  # loop over supports
+        if m.points is None or m.row is None:
             continue
-        if sh["class"] == "pier" and not sh.get("respond", False):
-            # a pier at its section whose shaft is round over its height: a column (a
-            # sparse ring beside a sign at the section), its points taken again as one
-            col = column_again(p, idx, kept[2], sh, params)
-            if col is not None:
-                again = extract_support(p, *col[1:], col[0], params, sc, h_own, (z0, z1), band)
-                if again is not None:
-                    sh.clear()
-                    sh.update(col[0])
-                    kept = again
-                    rounded += 1
-        if sh["class"] == "pier" and not sh.get("respond", False):
-            # a pier ending a wall: the wall's stub off it, at the step of their faces
-            ended = end_at_anta(kept[0], kept[2], sh, sc.tol)
-            if ended is not None:
-                kept = ended
-                antae += 1
-        cidx, crho, cpts = kept
-        row = describe(cpts, crho, sh, sc.tol, z_ref=h_own)
+        rounded += m.rounded  # a pier round over its shaft, taken again as a column
+        antae += m.anta  # a pier ending a wall, the wall's stub cut off it
+        (cidx, crho), row = m.points, m.row
+        cpts = np.take(p, cidx, axis=0)
         off = row.pop("off_shaft", None)  # a bench or a chair touching a column
         if off is not None and off.any():
             cidx, crho, cpts = cidx[~off], crho[~off], cpts[~off]

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from pyheracles.forks import map_fork
 from pyheracles.segment.euclidean import relabel_by_size
 from pyheracles.supports.core import Array, Scales, SupportParams
 from pyheracles.supports.kernels import occupied_cells, slab_components, slab_keys
@@ -173,13 +174,16 @@ def choose_height(
     # the points of all candidate slabs, in z order: one gather, then contiguous slices
     s0, e0 = np.searchsorted(z_sorted, [cands[0] - thickness / 2, cands[-1] + thickness / 2])
     grid = SlabGrid(xyz, order[s0:e0], distance / 2)
-    centres: list[Array] = []
-    sizes: list[Array] = []
-    for h in cands:  # loop over candidate heights
-        s, e = np.searchsorted(z_sorted, [h - thickness / 2, h + thickness / 2]) - s0
-        c, length = grid.support_islands(max(int(s), 0), max(int(e), 0), params)
-        centres.append(c)
-        sizes.append(length)
+    ends = np.searchsorted(z_sorted, np.c_[cands - thickness / 2, cands + thickness / 2]) - s0
+    ends = np.maximum(ends, 0)
+    # the slabs' islands, on two processes (map_fork: Python-heavy, independent slabs)
+    found = map_fork(
+        lambda se: grid.support_islands(int(se[0]), int(se[1]), params),
+        list(ends),
+        cost=list(ends[:, 1] - ends[:, 0]),
+    )
+    centres: list[Array] = [c for c, _ in found]
+    sizes: list[Array] = [length for _, length in found]
     trees = [cKDTree(c) if len(c) else None for c in centres]
     score = np.zeros(len(cands), dtype=int)
     for k, c in enumerate(centres):
