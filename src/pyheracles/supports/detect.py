@@ -28,7 +28,9 @@ from pyheracles.supports.core import (
     one_blas_thread,
     scales,
 )
+from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
+from pyheracles.supports.faceon import face_on_piers
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.low_section import low_heights, supports_floor
 from pyheracles.supports.measure import measure_supports
@@ -262,6 +264,12 @@ def detect_supports_checked(
             for sh in low_added:
                 sh["h_sec"] = h_low
             shapes += low_added
+    # 2f. piers seen face-on: straight lines of the section, free at both ends, whose
+    # face rises from the floor (their section is a line like a wall's)
+    if params.section_height_m is None:
+        shapes += face_on_shapes(
+            p, sec_idx, islands, shapes, order, z_sorted, h_sec, (z0, z1), params, sc
+        )
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
     if not shapes:
@@ -612,6 +620,58 @@ def covered_free_columns(rows: list[dict], carries: list[bool], overhead: list[f
         for k, (r, c, o) in enumerate(zip(rows, carries, overhead, strict=True))
         if r["class"] == "column" and not c and o >= OVERHEAD_SHARE
     }
+
+
+def face_on_shapes(
+    p: Array,
+    sec_idx: NDArray[np.intp],
+    islands: list[Island],
+    shapes: list[dict],
+    order: NDArray[np.intp],
+    z_sorted: Array,
+    h_sec: float,
+    z_range: tuple[float, float],
+    params: SupportParams,
+    sc: Scales,
+) -> list[dict]:
+    """Shapes of the piers seen face-on in the section (:func:`face_on_piers`) that are
+    no pieces of walls (:func:`wall_pieces`) and clear of every shape found, marked
+    ``sparse`` (judged by the level the building's supports carry,
+    :func:`low_carriers`).  The faces of one box are joined first
+    (:func:`~pyheracles.supports.face_boxes.join_face_parts`): with each other, with a
+    wall island (then judged with it) or with a pier shape found, which grows to the
+    box (``shapes`` is updated)."""
+
+    def band(z_lo: float, z_hi: float) -> NDArray[np.intp]:  # points between two heights
+        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
+        return order[a:b]
+
+    xy = p[sec_idx, :2]
+    faces = face_on_piers(xy, islands, band, p, z_range, h_sec, params, sc)
+    if not faces:
+        return []
+    # the faces of one pier, and a face of a found pier or of a piece of a wall, are
+    # joined into one box first (draws 11, 12, 19, 28)
+    parts = section_parts(xy, islands, shapes, sc.tol)
+    faces, grown = join_face_parts(xy, faces, parts, params.max_support_size_m, sc.tol)
+    for k, (centre, angle, size) in grown.items():
+        shapes[k].update(centre=centre, angle=angle, half=size / 2)
+    known = [i for i in islands if i.kind != "noise"]
+    pieces = wall_pieces(xy, known + faces, sc, set(range(len(known))))
+    out = []
+    for k, isl in enumerate(faces):
+        if len(known) + k in pieces:
+            continue
+        sh = {
+            "class": "pier", "centre": isl.center, "radius": isl.radius, "half": isl.size / 2,
+            "angle": isl.angle, "circularity": isl.circularity, "sparse": True,
+        }  # fmt: skip
+        sh["buffer"] = max(
+            params.buffer_min_m, params.pier_buffer_fraction * float(np.max(sh["half"]))
+        )
+        if clear_of(sh, shapes + out):
+            out.append(sh)
+    return out
 
 
 def thick_pier(sh: dict, params: SupportParams, thin_xy: Array) -> bool:
