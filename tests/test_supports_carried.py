@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from pyheracles.supports import SupportParams, detect_supports
+from pyheracles.supports.carriers import low_carriers
 from pyheracles.supports.cookies import foot_levels
-from pyheracles.supports.detect import low_carriers
 
 
 def _grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray:

@@ -12,7 +12,7 @@ columns only (its ruin walls and the posts of clutter are pier-like islands ther
 thin and thick (0.3 m: the broken columns of draw 24 have 3-11 points in the thin
 slab).  In a roofless ruin a pulpit's post carrying its tub was the one column
 carrying something, and the posts carrying nothing were judged against it
-(:func:`pyheracles.supports.detect.thin_free_columns`).
+(:func:`pyheracles.supports.carriers.thin_free_columns`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pyheracles.supports.detect import thin_free_columns
+from pyheracles.supports.carriers import thin_free_columns
 from pyheracles.supports.low_section import low_heights, supports_floor
 from supports_draws import scored_supports_draw
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from pyheracles.building import segment_building
-from pyheracles.supports.detect import thin_free_columns
+from pyheracles.supports.carriers import thin_free_columns
 from pyheracles.supports.piers import (
     FOOT_FROM_M,
     FOOT_TO_M,

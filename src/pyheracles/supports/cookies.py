@@ -401,7 +401,7 @@ def reaches_carried(top: float, floor_z: float, carried_z: float) -> bool:
     the pier of an arcade, whose arches spring from its top and span only higher up
     (draw 32: 0.76 of the way), so a support not reaching what it was found under is
     only judged by what stands round its top
-    (:func:`~pyheracles.supports.detect.covered_free_columns`).
+    (:func:`~pyheracles.supports.carriers.covered_free_columns`).
     """
     return top - floor_z >= CARRIED_REACH_SHARE * (carried_z - floor_z)
 

@@ -14,6 +14,13 @@ from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
 from pyheracles.supports.arcs import arc_owner
+from pyheracles.supports.carriers import (
+    LOW_CARRY_SHARE,
+    THIN_FREE_SHARE,
+    covered_free_columns,
+    low_carriers,
+    thin_free_columns,
+)
 from pyheracles.supports.clutter import thin_pier
 from pyheracles.supports.cookies import cookies
 from pyheracles.supports.core import (
@@ -493,133 +500,6 @@ def engage_on_wall_faces(
         sh["class"] = "engaged_column"
         sh.update(normal=n, d=d, face_gap=max(0.01, 3.0 * face_rms), angle=0.0)
         sh["half"] = np.array([r, r])
-
-
-#: A column that carries nothing (a broken column, one under the open sky) is one of the
-#: building's columns: at least this share of the radius of the thickest column that
-#: carries something (the groups of a building differ by 0.45-0.85 in radius; a post,
-#: the stem of a pulpit or a lamp stand beside 1 m columns is a tenth of theirs).
-THIN_FREE_SHARE = 0.3
-
-
-def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
-    """Indices of the columns carrying nothing thinner than ``THIN_FREE_SHARE`` x the
-    radius of the thickest column that carries, or, when fewer than
-    :data:`MIN_CARRYING` carry (a roofless ruin), of the thickest column (draw 17: the
-    stems of pulpits, 0.12 m, among broken columns of 1.2 m; draw 19: a pulpit's post
-    carrying its tub was the only column carrying something).  Radii of the cylinders
-    of the section's shaft points (``cylinder_radius_m``) where the rows have them: the
-    rule was set on those."""
-    radius = [r.get("cylinder_radius_m", r["radius_m"]) for r in rows]
-    carried = [x for r, x, c in zip(rows, radius, carries, strict=True)
-               if c and r["class"] == "column" and np.isfinite(x)]  # fmt: skip
-    if len(carried) < MIN_CARRYING:  # a roofless ruin: the thickest column standing
-        # (draw 19: the one column carrying something was a pulpit's post under its tub)
-        carried = [x for r, x in zip(rows, radius, strict=True)
-                   if r["class"] == "column" and np.isfinite(x)]  # fmt: skip
-    if not carried:
-        return set()
-    limit = THIN_FREE_SHARE * max(carried)
-    return {
-        k
-        for k, (r, x, c) in enumerate(zip(rows, radius, carries, strict=True))
-        if not c and r["class"] == "column" and x < limit
-    }
-
-
-#: A column that carries something carries the building where its supports carry it:
-#: its top (the underside of what it carries) lies at least this share of the way from
-#: its own floor up to the level the building's supports carry (the median top of those
-#: that carry something).  Supports on a dais or a step reach the same level from a
-#: higher floor; the post of a pulpit carries its tub at 0.25-0.75 of the way (supports
-#: family: posts 1.2-2.6 m under supports 2.5-15 m tall), a sign post its board.
-LOW_CARRY_SHARE = 0.8
-#: The carried level is a median of at least this many supports that carry.
-MIN_CARRYING = 3
-
-
-def low_carriers(
-    rows: list[dict],
-    carries: list[bool],
-    carried_z: list[float],
-    sparse: list[bool] | None = None,
-) -> set[int]:
-    """Indices of the columns, of the piers found in the thick section only
-    (``sparse``) and, in a ruin, of the piers that carry something, that end below the
-    building's carried level (in a ruin where fewer than :data:`MIN_CARRYING` supports
-    carry, the median top of those carrying nothing, and only those that carry are
-    judged: a post carrying its rail among broken columns).
-
-    ``rows``: objects-table rows (``class``, ``z_min``, ``z_max``); ``carries``: whether
-    each carries something; ``carried_z``: the underside of what it carries (metres).
-    The carried level is the median ``carried_z`` of the supports that carry (at least
-    :data:`MIN_CARRYING` of them); a column whose top (``carried_z`` if it carries, else
-    its highest point ``z_max``) is lower than ``LOW_CARRY_SHARE`` of the way from its
-    lowest point ``z_min`` up to that level is an object standing in the room (draws 8
-    and 25 of the supports family: pulpit posts 1.2-1.8 m tall "carrying" their tubs
-    beside supports carrying the ceiling at 2.6 m).  Where most supports carry (the
-    building stands), a column so low carrying nothing is one too (a post whose tub's
-    underside, level with the scanner, went unseen); in a ruin, where most carry
-    nothing, it is a broken column and stays.  A column whose foot or top the scan
-    missed is judged by what it carries, not by its points (draw 36: a column seen
-    from 1.35 to 2.58 m under a ceiling at 2.8 m).  A pier found in the thick section
-    only is judged alike (draw 1: a scaffold's standard 8 m tall beside a column, under
-    a roof carried at 14.7 m); one the thin section found only in a ruin, by what it
-    carries (draw 3: a fence post 1.6 m tall carried its rail among broken columns
-    3.9 m tall), not by its points when it carries nothing: its top may be shadowed
-    (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
-    building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
-    m tall cut at 4.1 m)."""
-    levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
-    if len(levels) >= MIN_CARRYING:
-        level = float(np.median(levels))
-        standing = 2 * len(levels) >= len(rows)
-    else:  # a ruin: its supports stand to the median top of those carrying nothing
-        free_tops = [float(r["z_max"]) for r, c in zip(rows, carries, strict=True) if not c]
-        if len(free_tops) < MIN_CARRYING or 2 * len(levels) >= len(rows):
-            return set()
-        level, standing = float(np.median(free_tops)), False
-    out = set()
-    for k, (r, c, t) in enumerate(zip(rows, carries, carried_z, strict=True)):
-        judged = (
-            r["class"] == "column"
-            or (sparse is not None and sparse[k])
-            or (r["class"] == "pier" and c and not standing)  # a post under its rail
-        )
-        if not judged or not (c or standing):
-            continue
-        top = t if c and np.isfinite(t) else float(r["z_max"])
-        if top - float(r["z_min"]) < LOW_CARRY_SHARE * (level - float(r["z_min"])):
-            out.add(k)
-    return out
-
-
-#: Something rests over a column carrying nothing when it covers at least this share
-#: of the sectors round it just above its top.
-OVERHEAD_SHARE = 0.5
-
-
-def covered_free_columns(rows: list[dict], carries: list[bool], overhead: list[float]) -> set[int]:
-    """Indices of the columns that carry nothing with something resting over them, in a
-    ruin (where fewer than half the supports carry; in a standing building
-    :func:`low_carriers` judges them by their height).  ``carries``: whether each
-    carries what it reaches (:func:`~pyheracles.supports.cookies.reaches_carried`): a
-    post ending 1 m under its pulpit's tub, whose rim was found over it, carries
-    nothing (draw 26).
-
-    A broken column's top is open to the sky; a column carrying nothing whose top has
-    something round it in ``OVERHEAD_SHARE`` of the sectors just above
-    (``overhead``, :func:`~pyheracles.supports.profile.overhead_cover`) stands under
-    what it does not carry: the post of a pulpit under its tub (draws 10, 24 and 26 of
-    the supports family: roofless ruins whose pulpit posts, 0.12 m in radius beside
-    columns of 0.17-0.23 m, were broken columns)."""
-    if 2 * sum(carries) >= len(rows):
-        return set()
-    return {
-        k
-        for k, (r, c, o) in enumerate(zip(rows, carries, overhead, strict=True))
-        if r["class"] == "column" and not c and o >= OVERHEAD_SHARE
-    }
 
 
 def face_on_shapes(
