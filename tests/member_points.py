@@ -1,5 +1,6 @@
-"""Points sampled on a generated timber member's faces, and the F1 of a found beam against
-a member's points, shared by the beams tests."""
+"""Points sampled on a generated timber member's faces, the F1 of a found beam against
+a member's points, and the classes of the beams found on a roof draw, shared by the beams
+tests."""
 
 from __future__ import annotations
 
@@ -32,3 +33,20 @@ def best_f1(truth: np.ndarray, labels: np.ndarray, member: int) -> float:
         return 0.0
     best = int(counts[1:].argmax()) + 1
     return 2 * counts[best] / (mine.sum() + (labels == best).sum())
+
+
+def found_classes(seed: int, noise_draw: int) -> list[str]:
+    """The class most of each found beam's points belong to, on a roof draw."""
+    from pyheracles.beams import segment_beams
+    from pyheracles.synthetic.families import simulate
+
+    sim = simulate("roof", seed, noise_draw=noise_draw)
+    cloud = sim.clouds["cloud"]
+    result = segment_beams(cloud.xyz)
+    names = sim.scene.class_names
+    good = ~cloud.outlier
+    out = []
+    for i in range(1, len(result.beams) + 1):
+        counts = np.bincount(cloud.class_id[(result.labels == i) & good], minlength=max(names) + 1)
+        out.append(names[int(counts.argmax())])
+    return out

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from member_points import found_classes
 from pyheracles.beams.frame import FrameParams, bearing
 from pyheracles.beams.model import BeamCuboid
 
@@ -81,23 +82,6 @@ def test_a_timber_crossing_under_the_plate_is_no_bearing():
     plate, strip = _plate_and_strip_of_draw_11()
     for deg in (30.0, 90.0):
         assert not bearing([plate, _turned(strip, deg)], FrameParams()).any()
-
-
-def found_classes(seed: int, noise_draw: int) -> list[str]:
-    """The class most of each found beam's points belong to, on a roof draw."""
-    from pyheracles.beams import segment_beams
-    from pyheracles.synthetic.families import simulate
-
-    sim = simulate("roof", seed, noise_draw=noise_draw)
-    cloud = sim.clouds["cloud"]
-    result = segment_beams(cloud.xyz)
-    names = sim.scene.class_names
-    good = ~cloud.outlier
-    out = []
-    for i in range(1, len(result.beams) + 1):
-        counts = np.bincount(cloud.class_id[(result.labels == i) & good], minlength=max(names) + 1)
-        out.append(names[int(counts.argmax())])
-    return out
 
 
 @pytest.mark.slow

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from member_points import found_classes
 from pyheracles.beams import BeamCuboid
 from pyheracles.beams.hull_strips import on_hull_strip
 from pyheracles.beams.model import StraightFacet
@@ -125,23 +126,6 @@ def test_the_rafter_seen_on_its_underside_and_side_is_a_member(corner):
     xyz, tree, probe, f, rafter, air = corner
     beams = [rafter, air]
     assert not on_hull_strip(xyz, beams, 0, [f["under"], f["side"]], tree, probe, 0.01)
-
-
-def found_classes(seed: int, noise_draw: int) -> list[str]:
-    """The class most of each found beam's points belong to, on a roof draw."""
-    from pyheracles.beams import segment_beams
-    from pyheracles.synthetic.families import simulate
-
-    sim = simulate("roof", seed, noise_draw=noise_draw)
-    cloud = sim.clouds["cloud"]
-    result = segment_beams(cloud.xyz)
-    names = sim.scene.class_names
-    good = ~cloud.outlier
-    out = []
-    for i in range(1, len(result.beams) + 1):
-        counts = np.bincount(cloud.class_id[(result.labels == i) & good], minlength=max(names) + 1)
-        out.append(names[int(counts.argmax())])
-    return out
 
 
 @pytest.mark.slow

@@ -121,6 +121,6 @@ def test_a_plumb_prop_apart_is_left_to_idle_standing():
 @pytest.mark.parametrize("noise_draw", range(4))
 def test_draw_15_has_no_ladder_member_in_any_noise_draw(noise_draw: int):
     """Roof draw 15 and three rescans of it: no found beam is the ladder."""
-    from test_beams_bearing_skew import found_classes
+    from member_points import found_classes
 
     assert "ladder" not in found_classes(15, noise_draw)
