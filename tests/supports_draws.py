@@ -3,7 +3,8 @@ scored as the benchmark scores it (the draw-based tests of ``test_supports_face_
 ``test_supports_round_shaft`` and ``test_supports_outline_kind``), and the extraction of
 a synthetic pier piece (``test_supports_wall_over_lintels``,
 ``test_supports_sparse_wall_faces``), and the walled bands of a synthetic pier piece
-beside walls (``test_supports_flush_face_lines``, ``test_supports_band_under_top``)."""
+beside walls (``test_supports_flush_face_lines``, ``test_supports_band_under_top``), and
+the face lines of sections (``test_supports_responds``, ``test_supports_respond_back``)."""
 
 from __future__ import annotations
 
@@ -115,3 +116,17 @@ def walled_bands_of_piece(
     (idx, rho, _), = cookies(p, [sh], params)  # fmt: skip
     return walled_band_count(p, p[idx], rho, sh, scales(step, params), h_sec, (0.0, top),
                              height_bands(p))  # fmt: skip
+
+
+def section_line(a, b, step: float = 0.02) -> np.ndarray:
+    """Points every ``step`` metres (at least 2) on the segment from ``a`` to ``b`` (plan
+    coordinates): a face line of a section."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    n = max(2, int(np.hypot(*(b - a)) / step) + 1)
+    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+
+
+def wall_face(y: float, x_runs, step: float = 0.02) -> np.ndarray:
+    """Section points of a wall face along ``y`` over the runs ``(x0, x1)`` of ``x_runs``
+    (the gaps between them are openings)."""
+    return np.vstack([section_line((x0, y), (x1, y), step) for x0, x1 in x_runs])

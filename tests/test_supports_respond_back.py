@@ -12,21 +12,12 @@ import pytest
 from pyheracles.supports import SupportParams
 from pyheracles.supports.responds import responds_on_wall
 from pyheracles.supports.rings import wall_face_lines
+from supports_draws import section_line, wall_face
 
 STEP = 0.02
 TOL = 0.03
 DISTANCE = 0.04
 BIN = 0.05
-
-
-def _line(a, b, step: float = STEP) -> np.ndarray:
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    n = max(2, int(np.hypot(*(b - a)) / step) + 1)
-    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-
-
-def _wall_face(y: float, x_runs) -> np.ndarray:
-    return np.vstack([_line((x0, y), (x1, y)) for x0, x1 in x_runs])
 
 
 def _wall_piece(thick: float, length: float, dense: float) -> np.ndarray:
@@ -39,9 +30,9 @@ def _wall_piece(thick: float, length: float, dense: float) -> np.ndarray:
     sparse_reveal = np.c_[np.full(3, length), [-0.4, -0.25, -0.1]]
     return np.vstack(
         [
-            _line((0.0, -thick), (length, -thick)),
-            _line((0.0, -thick), (0.0, 0.0)),
-            _line((0.0, 0.0), (dense, 0.0)),
+            section_line((0.0, -thick), (length, -thick)),
+            section_line((0.0, -thick), (0.0, 0.0)),
+            section_line((0.0, 0.0), (dense, 0.0)),
             sparse_near,
             sparse_reveal,
         ]
@@ -59,8 +50,8 @@ def test_wall_piece_between_windows_is_no_respond(seed: int) -> None:
     piece = piece + rng.normal(0.0, 0.003, piece.shape)
     beyond = np.vstack(
         [
-            _wall_face(-0.53, [(-3.0, -0.76), (2.76, 5.0)]),
-            _wall_face(0.0, [(-3.0, -0.76), (2.76, 5.0)]),
+            wall_face(-0.53, [(-3.0, -0.76), (2.76, 5.0)]),
+            wall_face(0.0, [(-3.0, -0.76), (2.76, 5.0)]),
         ]
     )
     section = np.vstack([piece, beyond + rng.normal(0.0, 0.003, beyond.shape)])
@@ -74,11 +65,11 @@ def test_respond_with_its_back_in_the_wall_stays() -> None:
     rng = np.random.default_rng(0)
     xy = np.vstack(
         [
-            _wall_face(0.0, [(-3.0, -0.3), (0.3, 3.0)]),
-            _wall_face(-0.53, [(-3.0, 3.0)]),
-            _line((-0.3, 0.5), (0.3, 0.5)),
-            _line((-0.3, 0.0), (-0.3, 0.5)),
-            _line((0.3, 0.0), (0.3, 0.5)),
+            wall_face(0.0, [(-3.0, -0.3), (0.3, 3.0)]),
+            wall_face(-0.53, [(-3.0, 3.0)]),
+            section_line((-0.3, 0.5), (0.3, 0.5)),
+            section_line((-0.3, 0.0), (-0.3, 0.5)),
+            section_line((0.3, 0.0), (0.3, 0.5)),
         ]
     )
     xy = xy + rng.normal(0.0, 0.003, xy.shape)

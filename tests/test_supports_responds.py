@@ -10,30 +10,21 @@ import pytest
 from pyheracles.supports import SupportParams
 from pyheracles.supports.responds import respond_island, responds_on_wall
 from pyheracles.supports.rings import wall_face_lines
+from supports_draws import section_line, wall_face
 
 STEP = 0.02
 TOL = 0.03
 
 
-def _line(a, b, step: float = STEP) -> np.ndarray:
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    n = max(2, int(np.hypot(*(b - a)) / step) + 1)
-    return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
-
-
-def _wall_face(y: float, x_runs) -> np.ndarray:
-    return np.vstack([_line((x0, y), (x1, y)) for x0, x1 in x_runs])
-
-
 def test_bump_out_of_the_wall_face_is_a_respond() -> None:
     """A 0.4 x 0.3 m pier on the inner face (y = 0) of a wall running on both ways:
     its section is the front and the two sides; the face behind it is in its shadow."""
-    wall = _wall_face(0.0, [(-3.0, -0.2), (0.2, 3.0)])
+    wall = wall_face(0.0, [(-3.0, -0.2), (0.2, 3.0)])
     u = np.vstack(
         [
-            _line((-0.2, 0.3), (0.2, 0.3)),
-            _line((-0.2, 0.0), (-0.2, 0.3)),
-            _line((0.2, 0.0), (0.2, 0.3)),
+            section_line((-0.2, 0.3), (0.2, 0.3)),
+            section_line((-0.2, 0.0), (-0.2, 0.3)),
+            section_line((0.2, 0.0), (0.2, 0.3)),
         ]
     )
     sh = respond_island(u, np.array([0.0, 0.15]), 0.0, np.array([0.4, 0.3]), wall, TOL, 0.04, 0.05)
@@ -48,12 +39,16 @@ def test_wall_piece_between_openings_is_no_respond() -> None:
     """A piece of a 0.8 m wall between two 1 m openings: its faces lie on the wall's
     faces (its back is no open shadow), and seen from the room only its reveals go
     back from the face line (no front)."""
-    inner = _wall_face(0.0, [(-3.0, -1.5), (1.5, 3.0)])
-    outer = _wall_face(-0.8, [(-3.0, -1.5), (1.5, 3.0)])
+    inner = wall_face(0.0, [(-3.0, -1.5), (1.5, 3.0)])
+    outer = wall_face(-0.8, [(-3.0, -1.5), (1.5, 3.0)])
     others = np.vstack([inner, outer])
-    reveals = np.vstack([_line((-0.5, -0.8), (-0.5, 0.0)), _line((0.5, -0.8), (0.5, 0.0))])
-    both = np.vstack([_line((-0.5, 0.0), (0.5, 0.0)), _line((-0.5, -0.8), (0.5, -0.8)), reveals])
-    one = np.vstack([_line((-0.5, 0.0), (0.5, 0.0)), reveals])
+    reveals = np.vstack(
+        [section_line((-0.5, -0.8), (-0.5, 0.0)), section_line((0.5, -0.8), (0.5, 0.0))]
+    )
+    both = np.vstack(
+        [section_line((-0.5, 0.0), (0.5, 0.0)), section_line((-0.5, -0.8), (0.5, -0.8)), reveals]
+    )
+    one = np.vstack([section_line((-0.5, 0.0), (0.5, 0.0)), reveals])
     for piece in (both, one):
         centre, size = np.array([0.0, -0.4]), np.array([1.0, 0.8])
         assert respond_island(piece, centre, 0.0, size, others, TOL, 0.04, 0.05) is None
@@ -64,13 +59,13 @@ def test_respond_on_a_wall_island_and_no_jamb() -> None:
     same wall ending at a 1.2 m opening (its reveal across the wall) gives none."""
     rng = np.random.default_rng(0)
     params = SupportParams()
-    inner = _wall_face(0.0, [(-3.0, -0.2), (0.2, 3.0)])
-    outer = _wall_face(-0.8, [(-3.0, 3.0)])
+    inner = wall_face(0.0, [(-3.0, -0.2), (0.2, 3.0)])
+    outer = wall_face(-0.8, [(-3.0, 3.0)])
     bump = np.vstack(
         [
-            _line((-0.2, 0.3), (0.2, 0.3)),
-            _line((-0.2, 0.0), (-0.2, 0.3)),
-            _line((0.2, 0.0), (0.2, 0.3)),
+            section_line((-0.2, 0.3), (0.2, 0.3)),
+            section_line((-0.2, 0.0), (-0.2, 0.3)),
+            section_line((0.2, 0.0), (0.2, 0.3)),
         ]
     )
     xy = np.vstack([inner, outer, bump]) + rng.normal(
@@ -81,9 +76,9 @@ def test_respond_on_a_wall_island_and_no_jamb() -> None:
     assert np.allclose(found[0]["centre"], [0.0, 0.15], atol=0.03)
     jamb = np.vstack(
         [
-            _wall_face(0.0, [(-3.0, 0.0)]),
-            _wall_face(-0.8, [(-3.0, 0.0)]),
-            _line((0.0, -0.8), (0.0, 0.0)),
+            wall_face(0.0, [(-3.0, 0.0)]),
+            wall_face(-0.8, [(-3.0, 0.0)]),
+            section_line((0.0, -0.8), (0.0, 0.0)),
         ]
     )
     jamb = jamb + rng.normal(0.0, 0.003, jamb.shape)
