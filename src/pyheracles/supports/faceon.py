@@ -23,8 +23,7 @@ from numpy.typing import NDArray
 
 from pyheracles.supports.core import Array, Island, Scales, SupportParams, trimmed_rms
 from pyheracles.supports.piers import WALL_LINE_COVER_M, WALL_LINE_GAP_M
-from pyheracles.supports.rings import gap_clusters
-from pyheracles.supports.sections import sparse_gaps
+from pyheracles.supports.sections import pool_groups
 
 __all__ = [
     "FaceOnParams",
@@ -308,18 +307,10 @@ def line_groups(
     for i in islands:
         if i.kind != "noise":
             used[i.index] = True
-    for gap in sparse_gaps(distance_m):  # a few scales, largest first
-        left = np.flatnonzero(~used)
-        if len(left) < params.min_points:
-            break
-        lab = gap_clusters(sec_xy[left], gap, params.min_points)
-        order = np.argsort(lab, kind="stable")
-        bounds = np.r_[0, np.cumsum(np.bincount(lab))]
-        for g in range(1, len(bounds) - 1):  # loop over groups
-            sub = left[order[bounds[g] : bounds[g + 1]]]
-            if face_line_of(sec_xy[sub], tol, FaceOnParams()) is not None:
-                groups.append(sub)
-                used[sub] = True
+    for sub in pool_groups(sec_xy, used, distance_m, params.min_points, params.min_points):
+        if face_line_of(sec_xy[sub], tol, FaceOnParams()) is not None:
+            groups.append(sub)
+            used[sub] = True
     return groups
 
 

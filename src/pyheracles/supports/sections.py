@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import replace
 
 import numpy as np
@@ -548,19 +549,11 @@ def sparse_islands(
         if i.kind not in pooled:
             used[i.index] = True
     found: list[Island] = []
-    for gap in sparse_gaps(distance_m):  # a few scales, largest first
-        left = np.flatnonzero(~used)
-        if len(left) < max(params.min_points, 4):
-            break
-        lab = gap_clusters(xy[left], gap, params.min_points)
-        order = np.argsort(lab, kind="stable")
-        bounds = np.r_[0, np.cumsum(np.bincount(lab))]
-        for g in range(1, len(bounds) - 1):  # loop over groups
-            sub = left[order[bounds[g] : bounds[g + 1]]]
-            got = sparse_group(xy[sub], sub, params)
-            found += got
-            if got:
-                used[sub] = True
+    for sub in pool_groups(xy, used, distance_m, params.min_points, max(params.min_points, 4)):
+        got = sparse_group(xy[sub], sub, params)
+        found += got
+        if got:
+            used[sub] = True
     if not found:
         return islands
     taken = np.zeros(len(xy), dtype=bool)
@@ -568,6 +561,27 @@ def sparse_islands(
         taken[i.index] = True
     kept = [i for i in islands if i.kind not in pooled or not taken[i.index].any()]
     return kept + found
+
+
+def pool_groups(
+    xy: Array, used: NDArray[np.bool_], distance_m: float, min_points: int, min_left: int
+) -> Iterator[NDArray[np.intp]]:
+    """Groups of the points not ``used`` (indices into ``xy``), clustered again at each
+    gap of :func:`sparse_gaps`, the largest first, while at least ``min_left`` points are
+    left.
+
+    The caller marks the points of a group it takes in ``used`` before asking for the
+    next one: the pool of each smaller gap is what the larger ones left.
+    """
+    for gap in sparse_gaps(distance_m):  # a few scales, largest first
+        left = np.flatnonzero(~used)
+        if len(left) < min_left:
+            return
+        lab = gap_clusters(xy[left], gap, min_points)
+        order = np.argsort(lab, kind="stable")
+        bounds = np.r_[0, np.cumsum(np.bincount(lab))]
+        for g in range(1, len(bounds) - 1):  # loop over groups
+            yield left[order[bounds[g] : bounds[g + 1]]]
 
 
 def regroup_pier_pieces(
