@@ -39,11 +39,20 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtri
+from numpy.typing import NDArray
 
 from pyheracles.errors import InputError
+from pyheracles.synthetic.ray_noise import acquisition_key, ray_ids, ray_normal, ray_uniform
+from pyheracles.synthetic.raycaster import RayCaster
 from pyheracles.synthetic.scene import Scene
+from pyheracles.synthetic.surveys import (
+    Acquisition,
+    AirborneSurvey,
+    Outliers,
+    PhotoViews,
+    SurfaceSampling,
+    TLSStation,
+)
 
 __all__ = [
     "AirborneSurvey",
@@ -53,6 +62,10 @@ __all__ = [
     "ScanResult",
     "SurfaceSampling",
     "TLSStation",
+    "acquisition_key",
+    "ray_ids",
+    "ray_normal",
+    "ray_uniform",
     "scan",
 ]
 
@@ -60,222 +73,6 @@ Array = NDArray[np.float64]
 
 #: Part names given to simulated artefacts (their points have ``outlier`` True).
 ARTEFACT_PARTS = ("mixed_pixel", "outlier_isolated", "outlier_cluster", "reflection")
-
-
-# ---------------------------------------------------------------------------
-# acquisitions
-# ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class TLSStation:
-    """A terrestrial laser scanner set up at one station.
-
-    Parameters
-    ----------
-    position
-        Optical centre (x, y, z), metres (the tripod height included).
-    step_deg
-        Angular step in azimuth and elevation, degrees (0.036 deg = 6.3 mm at 10 m).
-    elevation_deg
-        Lowest and highest elevation scanned, degrees; the lowest sets the
-        blind cone under the tripod (-60 deg: a 30 deg cone).
-    azimuth_deg
-        Azimuth window, degrees (0-360 for a full dome).
-    range_m
-        Nearest and farthest range that returns, metres.
-    noise_m, noise_per_m
-        Range noise sigma = ``noise_m + noise_per_m * r`` (1.5 mm + 0.05 mm/m
-        is a phase-based scanner's datasheet figure).
-    grazing_limit_deg
-        No return where the beam meets the surface at less than this angle
-        (incidence beyond ``90 - grazing_limit_deg`` from the normal).
-    detection
-        Signal level (reflectance x cos(incidence) x (10 m / r)^2) at which
-        the return probability is 63 %; lower values lose fewer points.
-    mixed_pixel_share
-        Share of depth-edge beams that return a point between the two surfaces.
-    edge_jump_m
-        Range jump between neighbouring beams that makes a depth edge.
-    """
-
-    position: tuple[float, float, float]
-    step_deg: float = 0.05
-    elevation_deg: tuple[float, float] = (-60.0, 90.0)
-    azimuth_deg: tuple[float, float] = (0.0, 360.0)
-    range_m: tuple[float, float] = (0.6, 120.0)
-    noise_m: float = 0.0015
-    noise_per_m: float = 0.00005
-    grazing_limit_deg: float = 5.0
-    detection: float = 0.002
-    mixed_pixel_share: float = 0.3
-    edge_jump_m: float = 0.05
-
-    def validate(self) -> None:
-        """Raise :class:`InputError` on impossible settings."""
-        if not (0 < self.step_deg <= 10):
-            raise InputError(f"TLS step_deg must be in (0, 10], got {self.step_deg}")
-        lo, hi = self.elevation_deg
-        if not (-90 <= lo < hi <= 90):
-            raise InputError(f"TLS elevation window must lie in [-90, 90], got {lo}, {hi}")
-        if not (0 <= self.range_m[0] < self.range_m[1]):
-            raise InputError(f"TLS range window must be increasing, got {self.range_m}")
-
-
-@dataclass(frozen=True)
-class PhotoViews:
-    """A photogrammetric block (terrestrial or UAV) and its dense matching.
-
-    Parameters
-    ----------
-    positions
-        ``(C, 3)`` camera centres, metres.
-    targets
-        ``(C, 3)`` points the cameras look at.
-    focal_px, width_px, height_px
-        Pinhole camera (principal point at the centre).
-    pixel_step
-        Dense matching keeps one point per ``pixel_step`` pixels (2 = half
-        resolution, as Metashape's "high").
-    sigma_m
-        Matching noise at ``reference_range_m``, metres, grown with range
-        and clipped to ``sigma_clip_m`` (dense matching: 5-15 mm).
-    max_incidence_deg
-        Views that see a surface more obliquely do not match it.
-    min_views
-        Views needed to triangulate a point.
-    """
-
-    positions: ArrayLike
-    targets: ArrayLike
-    focal_px: float = 3000.0
-    width_px: int = 4000
-    height_px: int = 3000
-    pixel_step: int = 8
-    sigma_m: float = 0.008
-    reference_range_m: float = 10.0
-    sigma_clip_m: tuple[float, float] = (0.005, 0.015)
-    max_incidence_deg: float = 75.0
-    min_views: int = 2
-
-    def validate(self) -> None:
-        """Raise :class:`InputError` on impossible settings."""
-        p = np.asarray(self.positions, float).reshape(-1, 3)
-        if len(p) < self.min_views:
-            raise InputError(f"photogrammetry needs at least {self.min_views} views, got {len(p)}")
-
-
-@dataclass(frozen=True)
-class AirborneSurvey:
-    """An airborne LiDAR survey of a rectangle in parallel overlapping strips.
-
-    Parameters
-    ----------
-    bounds
-        ``(xmin, ymin, xmax, ymax)`` of the area, metres.
-    altitude_m
-        Flying height above z = 0.
-    density_per_m2
-        Target pulse density of one strip's swath (the overlap adds to it).
-    half_fov_deg
-        Half scan angle (zig-zag across track).
-    overlap
-        Side overlap of neighbouring strips (0.2-0.5).
-    heading_deg
-        Flight direction, degrees from the x axis.
-    noise_m
-        Range noise sigma, metres.
-    max_returns
-        Returns recorded per pulse.
-    min_separation_m
-        Returns of one pulse closer than this merge (pulse length).
-    scan_rate_hz, speed_mps
-        Scan lines per second and ground speed.
-    """
-
-    bounds: tuple[float, float, float, float]
-    altitude_m: float = 500.0
-    density_per_m2: float = 10.0
-    half_fov_deg: float = 20.0
-    overlap: float = 0.3
-    heading_deg: float = 0.0
-    noise_m: float = 0.03
-    max_returns: int = 5
-    min_separation_m: float = 1.0
-    scan_rate_hz: float = 100.0
-    speed_mps: float = 60.0
-
-    def validate(self) -> None:
-        """Raise :class:`InputError` on impossible settings."""
-        x0, y0, x1, y1 = self.bounds
-        if not (x1 > x0 and y1 > y0):
-            raise InputError(f"airborne survey bounds are empty: {self.bounds}")
-        if self.density_per_m2 <= 0 or self.altitude_m <= 0:
-            raise InputError("airborne density and altitude must be positive")
-        if not (0 <= self.overlap < 0.9):
-            raise InputError(f"strip overlap must be in [0, 0.9), got {self.overlap}")
-
-
-@dataclass(frozen=True)
-class Outliers:
-    """Gross errors added to a scan, as a share of its output points.
-
-    Parameters
-    ----------
-    share
-        Outliers / all points (0.005 = 0.5 %).
-    isolated, clusters, reflections
-        Relative weights of the three kinds: isolated points (half of them
-        under scanned surfaces, as multipath echoes), small clusters (dust, birds, passers-by), and
-        virtual points behind glass (mirror images); reflections fall back to
-        isolated points when the scene has no glass.
-    cluster_size
-        Points per cluster (min, max).
-    below_m
-        How far under a scanned surface the low isolated points lie, metres.
-    """
-
-    share: float = 0.005
-    isolated: float = 0.5
-    clusters: float = 0.3
-    reflections: float = 0.2
-    cluster_size: tuple[int, int] = (5, 40)
-    below_m: float = 2.0
-
-    def validate(self) -> None:
-        """Raise :class:`InputError` on impossible settings."""
-        if not (0 <= self.share < 0.5):
-            raise InputError(f"outlier share must be in [0, 0.5), got {self.share}")
-
-
-@dataclass(frozen=True)
-class SurfaceSampling:
-    """An idealised registered union: every surface sampled uniformly, no shadows.
-
-    What a very well planned multi-station survey approaches, and what the
-    project's first named scenes were; kept so that those scenes stay
-    reproducible through the one simulator.  Real scanners are
-    :class:`TLSStation`, :class:`PhotoViews` and :class:`AirborneSurvey`.
-
-    Parameters
-    ----------
-    spacing_m
-        Mean point spacing: ``1 / spacing_m**2`` points per m^2.
-    noise_m
-        Isotropic Gaussian noise, metres.
-    parts
-        Restrict to these part names (None = every surface).
-    """
-
-    spacing_m: float = 0.02
-    noise_m: float = 0.003
-    parts: tuple[str, ...] | None = None
-
-    def validate(self) -> None:
-        """Raise :class:`InputError` on impossible settings."""
-        if self.spacing_m <= 0 or self.noise_m < 0:
-            raise InputError("surface sampling needs spacing_m > 0 and noise_m >= 0")
-
-
-Acquisition = TLSStation | PhotoViews | AirborneSurvey | SurfaceSampling
 
 
 # ---------------------------------------------------------------------------
@@ -342,172 +139,11 @@ _POINT_FIELDS = (
 
 
 # ---------------------------------------------------------------------------
-# random numbers per ray
-# ---------------------------------------------------------------------------
-# Why hand-written and not a numpy Generator: a Generator hands out numbers in
-# sequence, so the noise of a point would depend on how many rays hit before it.
-# Embree's hits at triangle edges differ between instruction sets (AVX2 vs
-# AVX-512 builds of the same intersector), so one ray more or less on another CPU
-# shifted every later point's noise and made the generated families differ from
-# machine to machine. A counter-based hash gives each ray its own numbers: a ray
-# that hits differently changes its own point only. numpy offers counter-based
-# bit generators (Philox) but no way to evaluate them per element.
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_STREAM = np.uint64(0xD1B54A32D192ED03)
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
-
-
-def ray_ids(outer: ArrayLike, inner: ArrayLike) -> NDArray[np.uint64]:
-    """One 64-bit id per ray from its two grid indices (e.g. azimuth column, elevation row)."""
-    a = np.asarray(outer).astype(np.uint64)
-    b = np.asarray(inner).astype(np.uint64)
-    return (a << np.uint64(32)) | b
-
-
-def ray_uniform(key: int, rays: NDArray[np.uint64], stream: int) -> Array:
-    """Uniform numbers in (0, 1), one per ray, that depend only on (key, ray, stream).
-
-    SplitMix64's finaliser (Steele, Lea and Flood 2014) applied to the ray id
-    offset by the key and the stream: different streams of the same ray are
-    independent draws.
-
-    Parameters
-    ----------
-    key
-        The acquisition's key (drawn once from the scan's generator).
-    rays
-        Ray ids (:func:`ray_ids`).
-    stream
-        Which draw of the ray (detection, noise, glass layer ...).
-
-    Examples
-    --------
-    >>> u = ray_uniform(7, ray_ids([0, 0, 1], [0, 1, 0]), 0)
-    >>> bool(((u > 0) & (u < 1)).all()), len(set(u.tolist()))
-    (True, 3)
-    >>> bool((ray_uniform(7, ray_ids([1], [0]), 0) == u[2]).all())
-    True
-    """
-    with np.errstate(over="ignore"):
-        x = rays * _GOLDEN + np.uint64(key) + np.uint64(stream) * _STREAM
-        x = (x ^ (x >> np.uint64(30))) * _MIX1
-        x = (x ^ (x >> np.uint64(27))) * _MIX2
-        x = x ^ (x >> np.uint64(31))
-    return ((x >> np.uint64(11)).astype(np.float64) + 0.5) * 2.0**-53
-
-
-def ray_normal(key: int, rays: NDArray[np.uint64], stream: int) -> Array:
-    """Standard normal numbers, one per ray (:func:`ray_uniform` through the normal quantile)."""
-    return ndtri(ray_uniform(key, rays, stream))
-
-
-def acquisition_key(rng: np.random.Generator) -> int:
-    """The key of one acquisition: one draw of the scan's generator, whatever it hits."""
-    return int(rng.integers(0, 2**63))
-
-
-# ---------------------------------------------------------------------------
-# ray casting
-# ---------------------------------------------------------------------------
-class RayCaster:
-    """Nearest-hit ray casting into a scene (Embree), with the hits' references.
-
-    Parameters
-    ----------
-    scene
-        The scene; its triangles are copied into Embree once.
-    """
-
-    def __init__(self, scene: Scene) -> None:
-        from embreex import rtcore_scene as rtcs
-        from embreex.mesh_construction import TriangleMesh
-
-        tris = scene.triangles
-        if len(tris) == 0:
-            raise InputError("the scene has no surfaces to scan")
-        self.scene = scene
-        self._embree = rtcs.EmbreeScene()
-        self._mesh = TriangleMesh(self._embree, np.ascontiguousarray(tris, np.float32))
-        n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-        self.normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        self.instance = scene.triangle_instance
-        self.class_id = scene.triangle_class
-        self.part = scene.triangle_part
-        mats = scene.materials
-        mid = scene.triangle_material
-        self.reflectance = np.array([m.reflectance for m in mats])[mid]
-        self.transmittance = np.array([m.transmittance for m in mats])[mid]
-        self.porous = np.array([m.porous for m in mats])[mid]
-        self.matchable = np.array([m.matchable for m in mats])[mid]
-        self.lo, self.hi = scene.bounds()
-
-    def cast(
-        self, origins: Array, directions: Array, chunk: int = 2_000_000
-    ) -> tuple[Array, NDArray[np.int64]]:
-        """Distance to the nearest hit (inf on a miss) and the triangle hit (-1)."""
-        n = len(directions)
-        t = np.full(n, np.inf)
-        prim = np.full(n, -1, np.int64)
-        o = np.broadcast_to(np.asarray(origins, np.float32), (n, 3))
-        for s in range(0, n, chunk):
-            sl = slice(s, min(s + chunk, n))
-            res = self._embree.run(
-                np.ascontiguousarray(o[sl]),
-                np.ascontiguousarray(directions[sl], np.float32),
-                output=1,
-            )
-            hit = res["geomID"] != -1
-            tt = res["tfar"].astype(float)
-            t[sl] = np.where(hit, tt, np.inf)
-            prim[sl] = np.where(hit, res["primID"], -1)
-        return t, prim
-
-    def first_solid(
-        self, origins: Array, directions: Array, rng: np.random.Generator, max_layers: int = 4
-    ) -> tuple[Array, NDArray[np.int64], NDArray[np.bool_]]:
-        """Nearest hit that returns, passing through glass by its transmittance.
-
-        Returns the range, the triangle and whether the beam passed through glass
-        before (for reflections).  Porous surfaces stop a terrestrial beam.
-        """
-        n = len(directions)
-        o = np.array(np.broadcast_to(origins, (n, 3)), float)
-        total = np.zeros(n)
-        t, prim = self.cast(o, directions)
-        passed = np.zeros(n, bool)
-        glass_at = np.full(n, np.inf)
-        # only beams still travelling are tested: a beam that did not pass a glass face
-        # returns from it and is never re-drawn (else glass would almost never return)
-        active = np.ones(n, bool)
-        for _ in range(max_layers):
-            tr = self.transmittance[np.maximum(prim, 0)]
-            on_glass = active & (prim >= 0) & (tr > 0)
-            go = on_glass & (rng.random(n) < tr)
-            active = go
-            if not go.any():
-                break
-            idx = np.flatnonzero(go)
-            glass_at[idx] = np.minimum(glass_at[idx], total[idx] + t[idx])
-            step = t[idx] + 1e-4
-            total[idx] += step
-            o[idx] += step[:, None] * directions[idx]
-            t2, p2 = self.cast(o[idx], directions[idx])
-            t[idx], prim[idx] = t2, p2
-            passed[idx] = True
-        return total + t, prim, passed & np.isfinite(glass_at)
-
-
-# ---------------------------------------------------------------------------
 # acquisitions -> points
 # ---------------------------------------------------------------------------
 # the draws of one ray (streams of ray_uniform)
 _DETECT_STREAM, _NOISE_STREAM, _GLASS_STREAM, _MIXED_STREAM = 0, 1, 2, 10
 _MATCH_STREAM, _PHOTO_NOISE_STREAM = 20, 21
-
-
-def _incidence_cos(caster: RayCaster, prim: NDArray[np.int64], d: Array) -> Array:
-    return np.abs(np.einsum("ij,ij->i", caster.normals[prim], d))
 
 
 def _tls(caster: RayCaster, st: TLSStation, rng: np.random.Generator) -> dict[str, Any]:
