@@ -13,6 +13,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.synthetic.families.complex_build import band as ring_band
+from pyheracles.synthetic.families.complex_build import fan as ring_fan
+from pyheracles.synthetic.families.complex_build import (
+    half_min_side,
+    rect_ring,
+    ridge_ring,
+)
+from pyheracles.synthetic.families.complex_build import quads as quad_triangles
+from pyheracles.synthetic.families.complex_build import with_z as ring_with_z
+
 # Surface kinds of the internal mesh (turned into part names and materials of the Scene).
 GROUND, ROOF, FACADE, WALL, GATE, COLUMN, FLOOR, TREE, CLUTTER = range(1, 10)
 BURY_M = 0.3  # foundations reach this far below the lowest ground under a footprint
@@ -45,54 +55,6 @@ def ground_height(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.
 
 
 # ----------------------------------------------------------------------------- meshes
-def ring_with_z(
-    ring_xy: NDArray[np.float64], z: float | NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """``(n, 3)`` points of a plan ring ``(n, 2)`` at height(s) ``z``."""
-    ring_xy = np.asarray(ring_xy, dtype=np.float64)
-    zz = np.broadcast_to(np.asarray(z, dtype=np.float64), (len(ring_xy),))
-    return np.column_stack([ring_xy, zz])
-
-
-def ring_band(lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Triangles joining two closed rings of equal length (walls, roof slopes)."""
-    lo1 = np.roll(lo, -1, axis=0)
-    hi1 = np.roll(hi, -1, axis=0)
-    t1 = np.stack([lo, lo1, hi1], axis=1)
-    t2 = np.stack([lo, hi1, hi], axis=1)
-    return np.concatenate([t1, t2])
-
-
-def ring_fan(ring: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Triangles of a convex planar ring (box tops, floors)."""
-    n = len(ring)
-    i = np.arange(1, n - 1)
-    return np.stack([np.repeat(ring[:1], n - 2, axis=0), ring[i], ring[i + 1]], axis=1)
-
-
-def rect_ring(x0: float, y0: float, x1: float, y1: float) -> NDArray[np.float64]:
-    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=np.float64)
-
-
-def ridge_ring(rect: NDArray[np.float64], shrink: float) -> NDArray[np.float64]:
-    """Inner ring of a hipped roof: the ridge (a degenerate ring) of an axis-aligned rectangle.
-
-    ``shrink`` < 1 keeps a smaller rectangle instead (the base of a second roof tier).
-    """
-    (x0, y0), (x1, y1) = rect[0], rect[2]
-    cx, cy, a, b = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2
-    if shrink > 0:
-        return rect_ring(cx - a * shrink, cy - b * shrink, cx + a * shrink, cy + b * shrink)
-    if a >= b:
-        r = a - b
-        return np.array([[cx - r, cy], [cx + r, cy], [cx + r, cy], [cx - r, cy]])
-    r = b - a
-    return np.array([[cx, cy - r], [cx, cy - r], [cx, cy + r], [cx, cy + r]])
-
-
-def half_min_side(ring: NDArray[np.float64]) -> float:
-    span = ring.max(axis=0) - ring.min(axis=0)
-    return float(span.min() / 2)
 
 
 class SceneMesh:
@@ -249,11 +211,6 @@ class SceneMesh:
                         ]
                     )
                     self.add(quad_triangles(cap[None]), owner, kind)
-
-
-def quad_triangles(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Split ``(n, 4, 3)`` quads into ``(2n, 3, 3)`` triangles."""
-    return np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
 
 
 def ring_ground(ring: NDArray[np.float64]) -> tuple[float, float]:

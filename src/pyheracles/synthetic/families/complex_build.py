@@ -167,7 +167,7 @@ def add_prism(
         scene.add_triangles(place.tris(fan(with_z(ring_top, zt))), **top_ref)
 
 
-def _ridge(rect: Array, shrink: float) -> Array:
+def ridge_ring(rect: Array, shrink: float) -> Array:
     """Inner ring of a hipped roof over an axis-aligned rectangle.
 
     ``shrink`` = 0 gives the ridge (a degenerate ring along the longer side);
@@ -184,7 +184,8 @@ def _ridge(rect: Array, shrink: float) -> Array:
     return np.array([[cx, cy - r], [cx, cy - r], [cx, cy + r], [cx, cy + r]])
 
 
-def _half_min(rect: Array) -> float:
+def half_min_side(rect: Array) -> float:
+    """Half the shorter side of a ring's bounding box (a hipped roof's rise scale), metres."""
     span = rect.max(axis=0) - rect.min(axis=0)
     return float(span.min() / 2)
 
@@ -216,22 +217,22 @@ def add_roof(
     wall_rect
         The walls under the roof (gables stand on it); defaults to ``rect``.
     """
-    half = _half_min(rect)
+    half = half_min_side(rect)
     slope = np.tan(np.deg2rad(pitch_deg))
     roof_ref = dict(ref, part=ref.get("part", "roof"))
     if style in ("hipped", "pyramid"):
         z_top = z_eave + slope * half
         scene.add_triangles(
-            place.tris(band(with_z(rect, z_eave), with_z(_ridge(rect, 0.0), z_top))), **roof_ref
+            place.tris(band(with_z(rect, z_eave), with_z(ridge_ring(rect, 0.0), z_top))), **roof_ref
         )
         return z_top
     if style == "joglo":
-        mid = _ridge(rect, 0.5)
+        mid = ridge_ring(rect, 0.5)
         z_mid = z_eave + 0.5 * half * slope * 0.8
         scene.add_triangles(place.tris(band(with_z(rect, z_eave), with_z(mid, z_mid))), **roof_ref)
-        z_top = z_mid + 1.25 * _half_min(mid) * max(slope, 1.0)
+        z_top = z_mid + 1.25 * half_min_side(mid) * max(slope, 1.0)
         scene.add_triangles(
-            place.tris(band(with_z(mid, z_mid), with_z(_ridge(mid, 0.0), z_top))), **roof_ref
+            place.tris(band(with_z(mid, z_mid), with_z(ridge_ring(mid, 0.0), z_top))), **roof_ref
         )
         return z_top
     if style == "flat":
