@@ -238,9 +238,7 @@ def test_scaffold_tower_round_a_column_is_no_wall() -> None:
         pytest.param(10, marks=pytest.mark.xfail(strict=True, reason=(
             "per-ray noise draw: attic cut, clutter merged, a wrong class"))),
         17,
-        pytest.param(28, marks=pytest.mark.xfail(strict=True, reason=(
-            "a ring split in two and a wrong class on this machine's draw (baseline "
-            "benchmarks/baselines/supports_sweep40.jsonl, seed 28; issue 12 open)"))),
+        28,
     ],
 )  # fmt: skip
 def test_family_draws_meet_the_main_target(seed: int) -> None:

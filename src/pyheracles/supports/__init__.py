@@ -37,7 +37,9 @@ This module keeps that structure and fixes the failures the thesis reports:
    by scan lines far apart).  A second, 30 cm thick section finds the supports
    whose few points do not make an island in the thin one.  Pier islands in
    line with a wall, or with a side on the line of a wall face (the pieces of a
-   wall between its openings), are walls.
+   wall between its openings), are walls.  A pier candidate between the two faces of
+   a wall, which run on beyond both of its ends, stands in the wall's opening (a
+   door's or a window's reveal in a thick wall): no pier.
 3. **Engaged columns** -- on wall islands, the wall faces are fitted as lines
    (MSAC); the points left over that form an arc of circle attached to a face
    are half-columns (class ``engaged_column``, which the thesis could not find).
@@ -70,6 +72,7 @@ from the point spacing), :mod:`~pyheracles.supports.height` (section height sear
 :mod:`~pyheracles.supports.sections` (islands of a section),
 :mod:`~pyheracles.supports.rings` (column rings from arcs, engaged columns),
 :mod:`~pyheracles.supports.piers` (rectangles, wall pieces),
+:mod:`~pyheracles.supports.openings` (piers inside a wall's opening: reveals, jambs),
 :mod:`~pyheracles.supports.cookies` (cookie-cutter, floor, clutter, clustering),
 :mod:`~pyheracles.supports.profile` (carried surface, reach per height band, wall edges),
 :mod:`~pyheracles.supports.primitives` (cylinders, boxes, plausibility) and

@@ -41,6 +41,7 @@ from pyheracles.supports.faceon import face_on_piers
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.low_section import low_heights, supports_floor
 from pyheracles.supports.measure import measure_supports
+from pyheracles.supports.openings import opening_piers
 from pyheracles.supports.piers import WALL_LINE_GAP_M, in_wall_line, wall_alongside, wall_fragment
 from pyheracles.supports.primitives import dedupe, implausible
 from pyheracles.supports.responds import respond_island, responds_on_wall
@@ -279,6 +280,15 @@ def detect_supports_checked(
         )
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
+    # 2g. no pier inside a wall's opening: the reveals of doors and windows in thick walls
+    reveals = opening_piers(p, order, z_sorted, shapes, h_sec, sc)
+    if reveals:
+        notes.append(
+            f"{len(reveals)} pier candidate{'s stand' if len(reveals) > 1 else ' stands'} "
+            "between the two faces of a wall running on beyond both of its ends (the "
+            "reveals and jambs of openings in thick walls): not supports"
+        )
+        shapes = [sh for k, sh in enumerate(shapes) if k not in reveals]
     if not shapes:
         notes.append(
             f"no support found in the section {at} "
