@@ -99,14 +99,32 @@ def anta_cut(
     if len(prism) < 20:
         return None
     angle = face_angle(prism[:, :2], angle, tol)
-    uv = rect_coords(prism[:, :2], centre, angle)
+    end = one_wall_end(rect_coords(prism[:, :2], centre, angle), tol, ap)
+    return None if end is None else (*end, angle)
+
+
+def one_wall_end(
+    uv: Array, tol: float, ap: AntaParams = ANTAE, across_reach: Array | None = None
+) -> tuple[int, float, float] | None:
+    """The axis, end and cut of the first axis of a pier's outline ``uv`` (plan
+    coordinates along and across its faces) along which a wall runs on from one end and
+    not from the other (:func:`wall_end`; narrower arms at both ends make a
+    cross-shaped pier, no anta), or None (see :func:`anta_cut`).  With
+    ``across_reach`` (metres, per axis), only the points within that far of the centre
+    across each axis are read along it (the section around a pier holds its
+    neighbours too)."""
     for axis in (0, 1):
         along, across = uv[:, axis], uv[:, 1 - axis]
+        if across_reach is not None:
+            near = np.abs(across) <= across_reach[1 - axis]
+            along, across = along[near], across[near]
+            if len(along) < 20:
+                continue
         ends = [wall_end(sign * along, across, tol, ap) for sign in (1.0, -1.0)]
         if (ends[0] is None) == (ends[1] is None):
             continue  # neither end, or both (a cross-shaped pier): no anta
         sign = 1.0 if ends[0] is not None else -1.0
-        return axis, sign, sign * float(ends[0] if ends[0] is not None else ends[1]), angle
+        return axis, sign, sign * float(ends[0] if ends[0] is not None else ends[1])
     return None
 
 

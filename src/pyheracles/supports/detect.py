@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
+from pyheracles.supports.anta_islands import anta_islands
 from pyheracles.supports.arcs import arc_owner
 from pyheracles.supports.carriers import (
     LOW_CARRY_SHARE,
@@ -684,7 +685,12 @@ def support_shapes(
     # going on (draw 27); then the pieces of walls
     islands, _ = regroup_pier_pieces(xy, islands, set(), params, sc.distance)
     bumps = respond_islands(xy, islands, sc) if responds else {}
-    pieces = wall_pieces(xy, islands, sc, set(bumps))
+    # a pier ending a set-in wall (an anta) has the wall's stub in line beyond it (in the
+    # main section only, as the responds: the low and thick ones hold more of the
+    # clutter and of the walls' openings)
+    bin_m = max(0.05, 3.0 * sc.spacing)
+    antae = anta_islands(xy, islands, sc.tol, sc.distance, bin_m) if responds else set()
+    pieces = wall_pieces(xy, islands, sc, set(bumps) | antae)
     fragments = len(pieces)
     on_wall: list[dict] = []  # responds on wall islands, after every other shape
     for k, isl in enumerate(islands):
@@ -715,7 +721,6 @@ def support_shapes(
         elif isl.kind == "wall" and params.engaged:
             faces = wall_face_lines(xy[isl.index], sc.tol, sc.distance, rng)
             if responds:  # after the half-columns: an arc is no rectangle
-                bin_m = max(0.05, 3.0 * sc.spacing)
                 on_wall += responds_on_wall(
                     xy[isl.index], faces, params, sc.tol, sc.distance, bin_m, xy
                 )
