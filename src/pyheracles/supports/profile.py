@@ -446,6 +446,34 @@ OUTLINE_LAYERS = 4
 OUTLINE_STALE_M = 1.0
 
 
+def held_narrow(rmin: Array, filled: Array, k: int, tol: float) -> bool:
+    """Whether the layers from ``k`` up stay narrower than the support's own outline
+    under ``k`` in more than :data:`OUTLINE_LAYERS` of ``2 x OUTLINE_LAYERS`` layers
+    (``rmin``: innermost offset per layer and sector, ``filled``: the same carried up
+    over empty layers, :func:`head_cut`).
+
+    The outline under ``k`` is, per sector, the innermost of the :data:`OUTLINE_LAYERS`
+    layers below the layer under ``k`` (where the underside of what the support carries
+    lies): a scaffold board round a shaft widens one or two of them, not all.  What
+    :func:`head_cut` compares a layer with follows what stands on the support: the
+    faces of a girder across a column, a prism of their own, become that outline four
+    layers above its underside, and the girder then seems to go on as the column
+    (supports draw 13: girders over 20 columns kept with them, 2-4 layers narrow).
+    """
+    below = filled[max(0, k - 1 - OUTLINE_LAYERS) : max(0, k - 1)]
+    below = np.where(np.isfinite(below), below, np.inf)
+    own = below.min(axis=0) if len(below) else np.full(rmin.shape[1], np.inf)
+    up = rmin[k : k + 2 * OUTLINE_LAYERS]
+    both = np.isfinite(up) & np.isfinite(own)[None, :]
+    gap = np.where(both, up - np.where(np.isfinite(own), own, 0.0)[None, :], 0.0)
+    narrow = both & (gap < -tol) & (up < -tol)
+    on = both & (np.abs(gap) <= tol)
+    n_both, n_narrow = both.sum(axis=1), narrow.sum(axis=1)
+    flag = (n_narrow >= MIN_NARROW_SECTORS) & (n_narrow >= NARROW_SHARE * n_both)
+    flag &= on.sum(axis=1) < ON_OUTLINE_SHARE * n_both
+    return int(np.count_nonzero(flag)) > OUTLINE_LAYERS
+
+
 def head_cut(
     rho: Array,
     ang: Array,
@@ -481,7 +509,9 @@ def head_cut(
     more than :data:`OUTLINE_LAYERS` of the ``2 x OUTLINE_LAYERS`` layers from there up
     narrow (clutter that widened the outline below, a scaffold board round a shaft,
     makes the shaft above it narrower than the outline for ``OUTLINE_LAYERS`` layers
-    at most: supports draw 22).  Only points below ``h_to`` (the underside of the
+    at most: supports draw 22), or if they narrow against the outline under that layer
+    (:func:`held_narrow`: a girder's faces become the outline four layers up).  Only
+    points below ``h_to`` (the underside of the
     spanning surface it carries) count.  The
     spanning test of :func:`carried_surface` did not see these: a vault funnel rises
     0.8-1.8 m within a column's cookie before it reaches the ring around it, and a
@@ -522,6 +552,8 @@ def head_cut(
     # and the narrowing lasts longer than the outline's memory: a scaffold board round a
     # shaft widens its outline for a layer or two, and the shaft above it is narrower
     # than that outline for OUTLINE_LAYERS layers at most
-    if np.count_nonzero(flag[k : k + 2 * OUTLINE_LAYERS]) <= OUTLINE_LAYERS:
+    if np.count_nonzero(flag[k : k + 2 * OUTLINE_LAYERS]) <= OUTLINE_LAYERS and not (
+        held_narrow(rmin, filled, k, tol)
+    ):
         return np.inf
     return h_from + (k - 1) * layer
