@@ -12,7 +12,7 @@ from pyheracles.beams.bands import edge_line_direction
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.grouping import UnionFind
 from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
-from pyheracles.beams.piece_joins import PieceFace, same_face
+from pyheracles.beams.piece_joins import PieceFace, gap_clear, same_face
 from pyheracles.beams.sections import Bow, centre_line_bow, face_edges
 from pyheracles.errors import DegenerateGeometryError
 
@@ -424,8 +424,9 @@ def join_pieces(
     pieces seen on one face that show the same face
     (:func:`~pyheracles.beams.piece_joins.same_face`, planes within
     ``plane_tol`` metres) are joined up to ``max_shadow`` apart too (no more
-    than the longer piece's length): their sections, measured behind one face,
-    need not agree.
+    than the longer piece's length, or farther when the line between them runs
+    through no other cuboid, :func:`~pyheracles.beams.piece_joins.gap_clear`):
+    their sections, measured behind one face, need not agree.
 
     Returns
     -------
@@ -443,10 +444,11 @@ def join_pieces(
         if collinear(a, b, cos_par, max_gap, max_shadow):
             return True
         gap = abs((b.centre - a.centre) @ a.axis) - 0.5 * (a.length + b.length)
-        return bool(
-            gap <= min(max_shadow, max(a.length, b.length))
-            and same_face(a, b, face_of[i], face_of[j], cos_par, plane_tol)
-        )
+        if gap > max_shadow or not same_face(a, b, face_of[i], face_of[j], cos_par, plane_tol):
+            return False
+        # a shadow longer than either piece: when nothing lies on the line between them
+        others = [c for k, c in enumerate(out) if k not in (i, j)]
+        return bool(gap <= max(a.length, b.length) or gap_clear(a, b, others))
 
     joined = True
     while joined:
