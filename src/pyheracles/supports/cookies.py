@@ -270,10 +270,16 @@ def extract_support(
         # an engaged column stands in a wall: the face must rise with it (a fence rail or
         # a bench touching a one-sided scanned column is no wall)
         top = top_z if np.isfinite(top_z) else z_range[1]
-        if face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5 and not (
-            sh["class"] == "engaged_column"
-            and height_band is not None
-            and face_rise_along_wall(p, height_band, sh, sc.tol, (floor_z, top), cell) >= 0.5
+        if (
+            # an engaged column of a row whose rings stop on one line (engaged_rows): its
+            # wall was never seen beside it (a ruin's walls end below its section)
+            not sh.get("row_cut", False)
+            and face_cover(pts, z, front, rho, sh, sc, floor_z, top) < 0.5
+            and not (
+                sh["class"] == "engaged_column"
+                and height_band is not None
+                and face_rise_along_wall(p, height_band, sh, sc.tol, (floor_z, top), cell) >= 0.5
+            )
         ):  # the face in the cookie is shadowed or cut by an opening: followed along
             # the wall, it rises with the column (supports draw 0)
             if sh.get("respond", False):

@@ -36,6 +36,7 @@ from pyheracles.supports.core import (
     one_blas_thread,
     scales,
 )
+from pyheracles.supports.engaged_rows import engage_rows
 from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.faceon import face_on_piers
@@ -281,6 +282,14 @@ def detect_supports_checked(
         )
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
+        # rows of columns whose rings stop on one line: a wall never scanned beside them
+        # (a ruin's walls end below the section; draw 24)
+        n_rows = engage_rows(p, order, z_sorted, shapes, h_sec, sc, z_sup)
+        if n_rows:
+            notes.append(
+                f"{n_rows} column{'s' if n_rows > 1 else ''} in rows whose rings stop on one "
+                "line, no floor seen behind it (a wall not scanned beside them): engaged"
+            )
     # 2g. no pier inside a wall's opening: the reveals of doors and windows in thick walls
     reveals = opening_piers(p, order, z_sorted, shapes, h_sec, sc)
     if reveals:
