@@ -31,6 +31,7 @@ from pyheracles.geometry.fitting import (
 from pyheracles.geometry.groups import group_medians, group_quantiles
 from pyheracles.supports.clutter import off_shaft
 from pyheracles.supports.core import Array, Scales
+from pyheracles.supports.shaft_band import shaft_band_axis
 
 
 def dedupe(shapes: list[dict]) -> list[dict]:
@@ -461,6 +462,14 @@ def describe(pts: Array, rho: Array, sh: dict, tol: float, *, z_ref: float | Non
             row.update(x=float(point[0]), y=float(point[1]), axis_x=float(axis[0]),
                        axis_y=float(axis[1]), axis_z=float(axis[2]))  # fmt: skip
             row.update(column_shape(pts, point, axis, radius, tol, z_ref=z_ref))
+            # the axis again from the shaft band only (not its plinth, base or capital)
+            band = shaft_band_axis(pts, point, axis, radius, row["base_top_m"],
+                                   row["capital_bottom_m"], tol)  # fmt: skip
+            if band is not None:
+                point, axis, radius = band
+                row.update(x=float(point[0]), y=float(point[1]), axis_x=float(axis[0]),
+                           axis_y=float(axis[1]), axis_z=float(axis[2]))  # fmt: skip
+                row.update(column_shape(pts, point, axis, radius, tol, z_ref=z_ref))
             if sh["class"] == "column":  # an engaged column's wall lies outside it too
                 row["off_shaft"] = off_shaft(pts, point, axis, row, tol)
     else:
