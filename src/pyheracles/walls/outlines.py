@@ -224,7 +224,7 @@ def wall_outline(w_uz: Array, face_of: NDArray[np.int64], on_plane: NDArray[np.b
                                 < 0.5 * (grid[1] - grid[0]) + 0.5)  # fmt: skip
                 box &= (uz_all[:, 1] > grid[2] - 0.5) & (uz_all[:, 1] < grid[3] + 0.5)
                 found = reveal_edges(uz_all[box], depth[box], *grid, c, jambs,  # type: ignore[index]
-                                     leaf=on_floor)
+                                     leaf=on_floor)  # fmt: skip
                 # the opening is where every surface is open: the innermost jambs of
                 # the faces' and the reveals' (a face's jamb, its innermost points and
                 # part of the gap to the next, narrows a reveal's by more than its
@@ -462,8 +462,8 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float 
     the lowest within 2.5 m but for the ``stray_m`` (m) of columns lowest there (a
     door or an occluder does not lift the foot, a few stray cells do not lower it);
     where that stands more than ``rise_m`` above the same within ``wide_m``, between
-    columns that do not within half of ``wide_m`` on either side, the latter (under an
-    arch or a door wider than 2.5 m less ``stray_m``; not at a wall's end).
+    columns that do on either side, one of them within half of ``wide_m``, the latter
+    (under an arch or a door wider than 2.5 m less ``stray_m``; not at a wall's end).
 
     Returns below a face's foot (multipath ghosts of its points, dropped 0.2-1.5 m
     straight down, on its plane) cover a cell here and there: with the plain lowest
@@ -474,7 +474,13 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float 
     of true foot in every window over it.  Over the middle of a wider one (church draw
     2's arch into the apse, 5 m wide) every column's lowest cell is the head: the foot
     rose to it there, and the arch was two openings either side of a pillar of wall.
-    A rise of ``rise_m`` within ``wide_m`` is no slope of the ground.
+    A rise of ``rise_m`` within ``wide_m`` is no slope of the ground.  Under an arch
+    wider than half of ``wide_m`` plus 2.5 m less ``stray_m``, a column near one jamb
+    stands more than half of ``wide_m`` from the other: the low foot on both sides
+    within half of ``wide_m`` held in its middle only, and the head's columns on either
+    side were two pillars of wall (church draw 15's chancel arch, 8.9 m wide: three
+    openings).  The low foot within half of ``wide_m`` on one side is the foot (the
+    ``wide_m`` rank filter reaches it), when there is one on the other side too.
     """
     from scipy import ndimage
 
@@ -493,10 +499,12 @@ def _foot(occ: NDArray[np.bool_], c: float, stray_m: float = 0.5, wide_m: float 
     low = near - wide <= rise_m / c
     if low.all() or not low.any():
         return near
-    # under an opening: low foot within half of wide_m on both sides (not a wall's end)
+    # under an opening: low foot on both sides (not a wall's end), on one within half
+    # of wide_m (the wide filter's reach)
     left = np.maximum.accumulate(np.where(low, idx, -size))
     right = np.minimum.accumulate(np.where(low, idx, 2 * len(idx) + size)[::-1])[::-1]
-    between = (idx - left <= size // 2) & (right - idx <= size // 2)
+    both = (left >= 0) & (right < len(idx))
+    between = both & (np.minimum(idx - left, right - idx) <= size // 2)
     return np.where(~low & between, wide, near)
 
 
