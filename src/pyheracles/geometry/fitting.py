@@ -37,6 +37,7 @@ __all__ = [
     "fit_plane",
     "fit_plane_msac",
     "min_area_rectangle",
+    "perpendicular_basis",
 ]
 
 Array = NDArray[np.float64]
@@ -433,7 +434,9 @@ def fit_circle_msac(
 
 
 # ---------------------------------------------------------------------------- cylinder
-def _perp_basis(axis: Array) -> tuple[Array, Array]:
+def perpendicular_basis(axis: Array) -> tuple[Array, Array]:
+    """Two unit vectors ``(u, w)`` completing the unit ``axis`` to a right-handed frame
+    (``u = axis x helper``, ``w = axis x u``; the helper is x unless the axis lies near it)."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(axis, helper)
     u /= np.linalg.norm(u)
@@ -479,7 +482,7 @@ def fit_cylinder(
     else:
         axis0 = np.asarray(axis_hint, dtype=np.float64)
         axis0 = axis0 / np.linalg.norm(axis0)
-    u, w = _perp_basis(axis0)
+    u, w = perpendicular_basis(axis0)
     circ = fit_circle(np.c_[q @ u, q @ w], method="algebraic")
     if not circ:
         return FailedFit(f"cross-section circle failed: {circ.reason}")
@@ -659,7 +662,7 @@ def fit_oriented_box(
     if up is not None:
         ax_up = np.asarray(up, dtype=np.float64)
         ax_up = ax_up / np.linalg.norm(ax_up)
-        e1, e2 = _perp_basis(ax_up)
+        e1, e2 = perpendicular_basis(ax_up)
         q = core - c
         centre2, ang, _ = min_area_rectangle(np.c_[q @ e1, q @ e2])
         a1 = np.cos(ang) * e1 + np.sin(ang) * e2

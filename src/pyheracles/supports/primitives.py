@@ -27,6 +27,7 @@ from pyheracles.geometry.fitting import (
     fit_circle,
     fit_cylinder,
     fit_oriented_box,
+    perpendicular_basis,
 )
 from pyheracles.geometry.groups import group_medians, group_quantiles
 from pyheracles.supports.clutter import off_shaft
@@ -70,9 +71,7 @@ def fit_cone(
     a0 = a0 / np.linalg.norm(a0)
     if a0[2] < 0:
         a0 = -a0
-    e1 = np.cross(a0, [1.0, 0.0, 0.0] if abs(a0[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a0, e1)
+    e1, e2 = perpendicular_basis(a0)
 
     def geom(x: Array) -> tuple[Array, Array]:
         a = a0 + x[0] * e1 + x[1] * e2

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from pyheracles.geometry.fitting import perpendicular_basis
 from pyheracles.geometry.groups import group_medians
 from pyheracles.supports.core import Array
 
@@ -149,9 +150,7 @@ def profile_axis(
     a0 = a0 / np.linalg.norm(a0)
     if a0[2] < 0:
         a0 = -a0
-    e1 = np.cross(a0, [1.0, 0.0, 0.0] if abs(a0[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a0, e1)
+    e1, e2 = perpendicular_basis(a0)
     c0 = point + float(np.mean((pts - point) @ a0)) * a0
     span = max(float(np.ptp((pts - c0) @ a0)), 1e-6)
 
