@@ -142,12 +142,15 @@ def opening_piers(
     each with a generator of its own (seed 0): the other steps' random numbers stay."""
     bin_m = max(0.05, 3.0 * sc.spacing)
     out = set()
+    slabs: dict[float, Array] = {}  # plan points of each section's slab, read once
     for k, sh in enumerate(shapes):
         if sh["class"] != "pier" or sh.get("respond", False):
             continue
         h = float(sh.get("h_sec", h_sec))
-        a, b = np.searchsorted(z_sorted, [h - sc.thickness / 2, h + sc.thickness / 2])
-        xy = p[order[a:b], :2]
+        if h not in slabs:
+            a, b = np.searchsorted(z_sorted, [h - sc.thickness / 2, h + sc.thickness / 2])
+            slabs[h] = p[order[a:b], :2]
+        xy = slabs[h]
         reach = float(np.hypot(*sh["half"])) + WALL_LINE_GAP_M
         xy = xy[np.max(np.abs(xy - sh["centre"]), axis=1) <= reach]
         rng = np.random.default_rng(0)
