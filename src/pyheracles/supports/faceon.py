@@ -27,6 +27,7 @@ from pyheracles.supports.sections import pool_groups
 
 __all__ = [
     "FaceOnParams",
+    "continues_line",
     "face_line_of",
     "face_on_piers",
     "on_wall_line",
@@ -223,7 +224,10 @@ def wall_from_ends(
         & (np.abs(t) <= half + WALL_LINE_GAP_M)
     )
     for side in (-1.0, 1.0):  # loop over ends
-        if cover(t[beyond & (side * t > 0)]) >= WALL_LINE_COVER_M:
+        end = beyond & (side * t > 0)
+        if cover(t[end]) >= WALL_LINE_COVER_M and continues_line(
+            t[end], s[end], side * half, tol, bin_m
+        ):
             return True
         across = (
             (np.abs(t - side * half) <= tol) & (np.abs(s) > tol) & (np.abs(s) <= WALL_LINE_GAP_M)
@@ -231,6 +235,28 @@ def wall_from_ends(
         if max(cover(s[across & (s > 0)]), cover(-s[across & (s < 0)])) >= p.corner_cover_m:
             return True
     return False
+
+
+def continues_line(t: Array, s: Array, end: float, tol: float, bin_m: float) -> bool:
+    """Whether the points ``(t, s)`` beyond a face line's end (``t`` along the line,
+    ``s`` across it, metres) continue that line: those within ``tol`` of it cover
+    :data:`~pyheracles.supports.piers.WALL_LINE_COVER_M` (in bins of ``bin_m``), or the
+    line fitted to all of them meets the line's end ``t = end`` within ``tol``.
+
+    The cone beyond a short line widens with the distance (its direction is known to a
+    degree or two), and far out it takes in a parallel face set back from the line: the
+    faces of the wall an anta ends, 0.1 m in from the anta's sides, run on beyond
+    them and within the cone two metres out (supports draw 14: both side faces of an
+    anta, 0.52 m long, were a wall going on).  A wall continuing the face lies on its
+    line at the end, whatever the line's small error of direction.
+    """
+    on = np.abs(s) <= tol
+    if len(np.unique(np.floor(t[on] / bin_m))) * bin_m >= WALL_LINE_COVER_M:
+        return True
+    if len(t) < 3:
+        return False
+    a, b = np.polyfit(t, s, 1)
+    return bool(abs(a * end + b) <= tol)
 
 
 def run_bounds(t: Array, gap_m: float) -> list[tuple[float, float]]:
