@@ -748,13 +748,23 @@ def section_radius(rel: Array, dh: Array, axis: Array, slope: float) -> float | 
     return float(x[2])
 
 
+#: A column's points run along at least this arc of its ring (degrees) for its cylinder
+#: to lie within them: the chord of the arc is what they must span.  A large column
+#: far from every station, or seen between its neighbours, shows a quarter to a half
+#: of its ring over its whole height (supports draw 39: a shaft of 1.26 m radius seen
+#: over 100 degrees, its points spanning 2.01 m of its 2.51 m; draw 33: 1.64 of 2.11 m),
+#: and its diameter is more than they span.
+MIN_COLUMN_ARC_DEG = 90.0
+
+
 def implausible(row: dict, pts: Array, sc: Scales) -> str:
     """Why a support's fitted primitive does not lie within its points ('' if it does).
 
     The centre must lie within the points' horizontal bounding box (a cylinder's centre
     may lie up to one radius outside it: the points of a partly scanned column are an
-    arc), the primitive must not be larger than the points' extent, and the points must
-    be at least one per point spacing along the primitive's size.  Slack: twice the
+    arc), the primitive must not be larger than the points' extent (a column's points
+    must span the chord of ``MIN_COLUMN_ARC_DEG`` of its ring), and the points must be
+    at least one per point spacing along the primitive's size.  Slack: twice the
     surface tolerance.
     """
     lo = np.array([pts[:, 0].min(), pts[:, 1].min()])
@@ -763,15 +773,17 @@ def implausible(row: dict, pts: Array, sc: Scales) -> str:
     slack = 2.0 * sc.tol
     if row["class"] == "pier":
         size = float(np.nanmax([row["box_length_m"], row["box_width_m"]]))
+        need = size
         margin = slack
         what = "box"
     else:
         size = 2.0 * float(row.get("cylinder_radius_m", row["radius_m"]))
+        need = size * float(np.sin(np.radians(MIN_COLUMN_ARC_DEG) / 2))
         margin = slack + 0.5 * size
         what = "cylinder"
     if not np.isfinite(size):
         return ""  # no primitive was fitted: the section shape describes it
-    if size > span + slack:
+    if need > span + slack:
         return f"its {what} is {size:.2f} m across, its points span {span:.2f} m"
     centre = np.array([row["x"], row["y"]], dtype=np.float64)
     out = float(np.max(np.r_[lo - centre, centre - hi, 0.0]))
