@@ -7,7 +7,10 @@
    ``min_frame_members`` beams (or the largest one) is the frame, and so is a
    smaller one that rises above the frame's bottom (a couple of rafters), or a
    horizontal beam joined to nothing that spans the frame (a tie beam whose
-   joints are hidden in the walls, ``span_share``; not a chimney); timber lying below the frame's
+   joints are hidden in the walls, ``span_share``; not a chimney) or lies
+   across the plane of a couple of rafters between their feet, off the floor
+   (a tie found in a piece, :func:`~pyheracles.beams.couples.ties_couple`);
+   timber lying below the frame's
    bottom and joined to none of it (loose timber on the floor) is flagged as
    not a member of the frame, and so is an inclined beam of a small group
    apart from the frame whose foot stands below the frame's bottom
@@ -41,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pyheracles.beams.couples import ties_couple
 from pyheracles.beams.deflection import MemberShape, ShapeParams, member_shapes
 from pyheracles.beams.joints import Joint, JointParams, components, find_joints
 from pyheracles.beams.model import BeamCuboid, BeamResult
@@ -101,6 +105,15 @@ class FrameParams:
         band's direction can be several degrees off the plate's (roof seed 11:
         6.4 degrees); horizontal members laid along one another are parallel,
         crossing ones are square.
+    couple_skew_deg
+        Largest angle in plan between a horizontal beam and each inclined beam
+        of a couple it ties, degrees
+        (:func:`~pyheracles.beams.couples.ties_couple`): a horizontal beam
+        joined to nothing is a member when it lies across the plane of a
+        couple of rafters, between their feet, off the floor (a tie whose ends
+        are hidden in the wall heads or shadowed may be found shorter than
+        ``span_share`` of the frame; a strip of the floor beside a tie sunk in
+        it lies in the couple's plane too).
     """
 
     joints: JointParams = field(default_factory=JointParams)
@@ -112,6 +125,7 @@ class FrameParams:
     span_share: float = 0.8
     bearing_reach_m: float = 1.0
     bearing_skew_deg: float = 10.0
+    couple_skew_deg: float = 10.0
 
     def validate(self) -> FrameParams:
         self.joints.validate()
@@ -132,6 +146,10 @@ class FrameParams:
         if not 0 <= self.bearing_skew_deg < 45:
             raise InputError(
                 f"bearing_skew_deg must be in [0, 45) degrees, got {self.bearing_skew_deg}"
+            )
+        if not 0 <= self.couple_skew_deg < 45:
+            raise InputError(
+                f"couple_skew_deg must be in [0, 45) degrees, got {self.couple_skew_deg}"
             )
         if self.min_frame_members < 2:
             raise InputError(f"min_frame_members must be >= 2, got {self.min_frame_members}")
@@ -267,6 +285,32 @@ def _half_height(b: BeamCuboid) -> float:
 def _axis_foot(b: BeamCuboid) -> float:
     """Height of the lower end of a beam's axis, metres."""
     return float(b.centre[2] - 0.5 * b.length * abs(b.axis[2]))
+
+
+def _ties_couple(
+    beams: list[BeamCuboid], i: int, others: NDArray[np.bool_], p: FrameParams
+) -> bool:
+    """:func:`~pyheracles.beams.couples.ties_couple` with the frame's parameters."""
+    return ties_couple(
+        beams,
+        i,
+        others,
+        inclined_deg=p.joints.inclined_deg,
+        vertical_deg=p.roles.vertical_deg,
+        skew_deg=p.couple_skew_deg,
+    )
+
+
+def _on_floor(beams: list[BeamCuboid], b: BeamCuboid, p: FrameParams) -> bool:
+    """Whether ``b``'s underside lies within one of its sections of the floor.
+
+    The floor is read as :func:`loose` reads it: the bottom of all the
+    horizontal beams (timber lying on it, ties sunk in it).
+    """
+    flat = np.array([c.inclination_deg <= p.roles.horizontal_deg for c in beams])
+    floor = frame_levels(beams, flat, p.roles)[0]
+    underside = float(b.centre[2]) - _half_height(b)
+    return underside <= floor + max(b.width, b.height)
 
 
 def leaning(
@@ -525,7 +569,11 @@ def frame_members(
                 b = beams[ids[0]]
                 flat = b.inclination_deg <= p.roles.horizontal_deg
                 spans = b.length >= p.span_share * float(np.ptp(corners @ b.axis))
-                in_frame[ids] &= flat and spans
+                # or a tie of a couple of rafters, its ends hidden or shadowed, lying
+                # off the floor (a strip of the floor beside a tie sunk in it lies in
+                # the couple's plane too)
+                ties = _ties_couple(beams, int(ids[0]), core, p) and not _on_floor(beams, b, p)
+                in_frame[ids] &= flat and (spans or ties)
         in_frame &= ~loose(beams, joints, in_frame, p)
     in_frame &= ~bearing(beams, p)
     return comp, in_frame
