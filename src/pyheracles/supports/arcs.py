@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from pyheracles.supports.core import Array
 
-__all__ = ["ARC_ON_SURFACE_SHARE", "arc_owner", "surface_offsets"]
+__all__ = ["ARC_ON_SURFACE_SHARE", "arc_owner", "arc_wall_piers", "surface_offsets"]
 
 #: A pier candidate is an arc of a column when at least this share of its points lie
 #: on the column's surface.
@@ -68,3 +68,70 @@ def arc_owner(pier_pts: Array, columns: list[tuple[dict, Array]], tol: float) ->
         if np.count_nonzero(on) >= ARC_ON_SURFACE_SHARE * len(pier_pts):
             return j
     return None
+
+
+#: A pier shape is an arc of an engaged column's ring with a stretch of the wall it
+#: stands in when at least ``ARC_WALL_RING_SHARE`` of the section points in its
+#: rectangle lie on that ring and ``ARC_WALL_SHARE`` on the ring or the column's wall
+#: face (supports draw 38: an island of an engaged column's arc and 1 m of its wall,
+#: 28-54 % on the ring and the rest on the face over noise draws, became a pier holding
+#: a third of the column, the column itself found in the low section: ``ring_split``).
+#: The ring's share only ties the piece to the column: all of it is the column's
+#: surface or its wall's.
+ARC_WALL_RING_SHARE = 0.1
+ARC_WALL_SHARE = 0.9
+#: Section points a pier shape needs for the test.
+ARC_WALL_MIN_POINTS = 8
+
+
+def arc_wall_piers(xy: Array, shapes: list[dict], tol: float) -> set[int]:
+    """Indices of the pier shapes of one section that are an arc of an engaged column's
+    ring with a stretch of the wall it stands in.
+
+    Parameters
+    ----------
+    xy
+        ``(N, 2)`` plan points of the section the pier shapes were found in.
+    shapes
+        Section shapes (``class``, ``centre``, ``half``, ``angle``; engaged columns also
+        ``radius``, ``normal``, ``d``, ``face_gap``: their wall face ``n . x = d``), of
+        any section: the pier shapes tested are those given, the engaged ones may come
+        from another section (a column's ring and its wall's face hold at every height).
+    tol
+        Surface tolerance, metres.
+
+    Returns
+    -------
+    set of int
+        A pier shape is in it when its rectangle (grown by ``tol``) holds at least
+        ``ARC_WALL_MIN_POINTS`` points of ``xy``, ``ARC_WALL_RING_SHARE`` of them within
+        ``max(2 tol, 0.1 r)`` of an engaged column's circle and ``ARC_WALL_SHARE`` of
+        them on that circle or within ``max(tol, face_gap)`` of its face.
+    """
+    engaged = [e for e in shapes if e["class"] == "engaged_column" and "normal" in e]
+    out: set[int] = set()
+    if not engaged:
+        return out
+    for k, sh in enumerate(shapes):
+        if sh["class"] != "pier":
+            continue
+        c = np.asarray(sh["centre"], dtype=np.float64)
+        half = np.asarray(sh["half"], dtype=np.float64)
+        u = np.array([np.cos(sh["angle"]), np.sin(sh["angle"])])
+        q = xy - c
+        inside = (np.abs(q @ u) <= half[0] + tol) & (
+            np.abs(q @ np.array([-u[1], u[0]])) <= half[1] + tol
+        )
+        pts = xy[inside]
+        if len(pts) < ARC_WALL_MIN_POINTS:
+            continue
+        for e in engaged:
+            ce, r = np.asarray(e["centre"], dtype=np.float64), float(e["radius"])
+            if float(np.hypot(*(c - ce))) > r + float(np.hypot(*half)) + tol:
+                continue
+            ring = np.abs(np.hypot(*(pts - ce).T) - r) <= max(2.0 * tol, 0.1 * r)
+            face = np.abs(pts @ np.asarray(e["normal"]) - float(e["d"])) <= max(tol, e["face_gap"])
+            if ring.mean() >= ARC_WALL_RING_SHARE and (ring | face).mean() >= ARC_WALL_SHARE:
+                out.add(k)
+                break
+    return out

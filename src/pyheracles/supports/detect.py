@@ -14,7 +14,7 @@ from pyheracles.errors import InputError
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
 from pyheracles.supports.anta_islands import anta_islands
-from pyheracles.supports.arcs import arc_owner
+from pyheracles.supports.arcs import arc_owner, arc_wall_piers
 from pyheracles.supports.carriers import (
     LOW_CARRY_SHARE,
     THIN_FREE_SHARE,
@@ -299,6 +299,19 @@ def detect_supports_checked(
                 f"{n_rows} column{'s' if n_rows > 1 else ''} in rows whose rings stop on one "
                 "line, no floor seen behind it (a wall not scanned beside them): engaged"
             )
+        # no pier of an engaged column's arc and its wall's face (the column found in
+        # another section: draw 38)
+        main = [
+            {**sh, "class": "low_pier"} if sh["class"] == "pier" and "h_sec" in sh else sh
+            for sh in shapes
+        ]  # the piers of the main section only: its points are tested
+        arc_piers = arc_wall_piers(p[sec_idx, :2], main, sc.tol)
+        if arc_piers:
+            notes.append(
+                f"{len(arc_piers)} pier candidate{'s are' if len(arc_piers) > 1 else ' is'} an "
+                "engaged column's arc with its wall's face: not supports"
+            )
+            shapes = [sh for k, sh in enumerate(shapes) if k not in arc_piers]
     # 2g. no pier inside a wall's opening: the reveals of doors and windows in thick walls
     reveals = opening_piers(p, order, z_sorted, shapes, h_sec, sc)
     if reveals:
