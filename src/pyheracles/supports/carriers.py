@@ -53,12 +53,6 @@ def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
 LOW_CARRY_SHARE = 0.8
 #: The carried level is a median of at least this many supports that carry.
 MIN_CARRYING = 3
-#: A support ending short of what it carries holds something up (a pulpit's tub, a
-#: fence's rails, a pew's back) when that stands round its top in at least this share
-#: of the sectors (:func:`~pyheracles.supports.profile.overhead_cover`; 0.17-0.42 round
-#: the posts, fences and pews of draws 8, 12, 16, 25 and 32, 0-0.03 over the columns
-#: and sparse piers whose upper part was lost, draws 32 and 33).
-SHORT_OVERHEAD_SHARE = 0.1
 
 
 def low_carriers(
@@ -66,8 +60,6 @@ def low_carriers(
     carries: list[bool],
     carried_z: list[float],
     sparse: list[bool] | None = None,
-    reaches: list[bool] | None = None,
-    overhead: list[float] | None = None,
 ) -> set[int]:
     """Indices of the columns, of the piers found in the thick section only
     (``sparse``) and, in a ruin, of the piers that carry something, that end below the
@@ -94,25 +86,7 @@ def low_carriers(
     3.9 m tall), not by its points when it carries nothing: its top may be shadowed
     (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
     building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
-    m tall cut at 4.1 m).
-
-    ``reaches``: whether each reaches what it carries
-    (:func:`~pyheracles.supports.cookies.reaches_carried`), and ``overhead``: the
-    share of the sectors round it holding something just above its top
-    (:func:`~pyheracles.supports.profile.overhead_cover`).  In a standing building a
-    column (or a sparse pier) that carries something it does not reach, with
-    something standing round its top in at least :data:`SHORT_OVERHEAD_SHARE` of the
-    sectors, is judged by its own top, not by what it "carries": it ends under
-    what it holds up.  The post of a pulpit, its tub's underside unseen, "carries" the
-    ceiling 1-3 m above its top with the tub's sides round it (supports draws 12 and
-    16: posts 1.9-2.4 m tall, 0.51-0.56 of the way up to the attic or the ceiling,
-    cover 0.28-0.36), a fence's bars the attic with its rails (draw 25: 0.50 of the
-    way, cover 0.17), a pew the vault with its back (draw 32: 0.62, 0.17).  The top
-    of a column whose upper part the scan or its cookie lost is open (draw 33: a
-    column of 1.2 m seen up to 9.9 m under an attic carried at 15 m, cover 0): it is
-    still judged by what it carries; nor is an arcade's pier judged, whose arches
-    spring from its top below what it was found under (piers are not, but the sparse
-    ones)."""
+    m tall cut at 4.1 m)."""
     levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
     if len(levels) >= MIN_CARRYING:
         level = float(np.median(levels))
@@ -131,14 +105,7 @@ def low_carriers(
         )
         if not judged or not (c or standing):
             continue
-        short = (  # ends short of what it carries, under something it holds up
-            standing
-            and reaches is not None
-            and overhead is not None
-            and not reaches[k]
-            and overhead[k] >= SHORT_OVERHEAD_SHARE
-        )
-        top = t if c and np.isfinite(t) and not short else float(r["z_max"])
+        top = t if c and np.isfinite(t) else float(r["z_max"])
         if top - float(r["z_min"]) < LOW_CARRY_SHARE * (level - float(r["z_min"])):
             out.add(k)
     return out

@@ -428,8 +428,7 @@ def detect_supports_checked(
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
     carries, tops, covers, reach, sparse = ([m[j] for m in members] for j in (1, 2, 3, 4, 5))
-    low = low_carriers(rows, carries, tops, sparse, reach, covers)
-    low |= covered_free_columns(rows, reach, covers)
+    low = low_carriers(rows, carries, tops, sparse) | covered_free_columns(rows, reach, covers)
     if low:
         notes.append(
             f"{len(low)} candidate{'s' if len(low) > 1 else ''} ending lower than "
