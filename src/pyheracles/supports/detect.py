@@ -39,7 +39,6 @@ from pyheracles.supports.core import (
 from pyheracles.supports.engaged_rows import engage_rows
 from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
-from pyheracles.supports.face_rows import engage_face_rows
 from pyheracles.supports.faceon import face_on_piers
 from pyheracles.supports.height import choose_height, dense_extent
 from pyheracles.supports.low_section import low_heights, supports_floor
@@ -283,14 +282,6 @@ def detect_supports_checked(
         )
     if params.engaged:
         engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
-        # the free columns of their rows standing in the faces those found (the face
-        # beside them shadowed by the shaft: draw 38)
-        n_faces = engage_face_rows(p, order, z_sorted, shapes, h_sec, sc)
-        if n_faces:
-            notes.append(
-                f"{n_faces} column{'s' if n_faces > 1 else ''} standing in the wall face of an "
-                "engaged column of their row (as far in front of it): engaged"
-            )
         # rows of columns whose rings stop on one line: a wall never scanned beside them
         # (a ruin's walls end below the section; draw 24)
         n_rows = engage_rows(p, order, z_sorted, shapes, h_sec, sc, z_sup)

@@ -246,39 +246,6 @@ def row_cut_columns(
     return {k: v for k, v in found.items() if k not in clash}
 
 
-def column_rings(
-    p: Array,
-    order: NDArray[np.intp],
-    z_sorted: Array,
-    shapes: list[dict],
-    h_sec: float,
-    sc: Scales,
-    slab_m: float,
-) -> list[Array]:
-    """Per round shape, the ``(K, 2)`` plan points of its ring: those of a slab ``slab_m``
-    above and below its section (``sh["h_sec"]`` or ``h_sec``) within ``max(2 tol, 0.1
-    r)`` of its circle."""
-    slabs: dict[float, tuple[Array, Array]] = {}  # per section height: points sorted by x
-    rings: list[Array] = []
-    for sh in shapes:
-        c = np.asarray(sh["centre"], dtype=np.float64)
-        r = float(sh["radius"])
-        h = float(sh.get("h_sec", h_sec))
-        if h not in slabs:
-            a, b = np.searchsorted(z_sorted, [h - slab_m, h + slab_m])
-            xy = p[order[a:b], :2]
-            xy = xy[np.argsort(xy[:, 0], kind="stable")]
-            slabs[h] = (xy, xy[:, 0])
-        xy, xs = slabs[h]
-        reach = r + 2.0 * sc.tol
-        a, b = np.searchsorted(xs, [c[0] - reach, c[0] + reach])
-        near = xy[a:b]
-        near = near[np.abs(near[:, 1] - c[1]) <= reach]
-        dist = np.hypot(*(near - c).T)
-        rings.append(near[np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r)])
-    return rings
-
-
 def engage_rows(
     p: Array,
     order: NDArray[np.intp],
@@ -305,7 +272,22 @@ def engage_rows(
         return 0
     centres = np.array([np.asarray(shapes[k]["centre"], dtype=np.float64) for k in cols])
     radii = np.array([float(shapes[k]["radius"]) for k in cols])
-    rings = column_rings(p, order, z_sorted, [shapes[k] for k in cols], h_sec, sc, params.slab_m)
+    slabs: dict[float, tuple[Array, Array]] = {}  # per section height: points sorted by x
+    rings: list[Array] = []
+    for c, r, k in zip(centres, radii, cols, strict=True):
+        h = float(shapes[k].get("h_sec", h_sec))
+        if h not in slabs:
+            a, b = np.searchsorted(z_sorted, [h - params.slab_m, h + params.slab_m])
+            xy = p[order[a:b], :2]
+            xy = xy[np.argsort(xy[:, 0], kind="stable")]
+            slabs[h] = (xy, xy[:, 0])
+        xy, xs = slabs[h]
+        reach = r + 2.0 * sc.tol
+        a, b = np.searchsorted(xs, [c[0] - reach, c[0] + reach])
+        near = xy[a:b]
+        near = near[np.abs(near[:, 1] - c[1]) <= reach]
+        dist = np.hypot(*(near - c).T)
+        rings.append(near[np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r)])
     band: list[Array] = []  # plan points from the floor up to the section, read once
 
     def behind(m: Array, d: float, ends: Array) -> int:
