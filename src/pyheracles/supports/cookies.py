@@ -472,17 +472,7 @@ def wall_piece_in_bands(
     under its top (:data:`~pyheracles.supports.piers.UPPER_FROM_M` to
     :data:`~pyheracles.supports.piers.UPPER_TO_M` below it), one end in one band and
     the other in the other if need be
-    (:func:`~pyheracles.supports.piers.walled_at_both_ends`), or two of them, on faces
-    it shows and at least 45 degrees apart, run on beyond one of its ends each, in
-    either band (:func:`~pyheracles.supports.piers.walled_piece`: a corner).
-
-    Where two walls meet between a window in one and a door in the other, the section
-    cuts the corner off like a pier, and the shadows of the supports standing in front
-    of the walls cut its faces off the walls beside it over most of its height: only
-    under its top do both walls run on from it, beyond one end each (supports draw 0:
-    an inner corner 1.2 x 0.56 m between a window and the next wall, seen from inside;
-    draw 3, noise draws 2 and 3: a ruin's corner block between a window and a door,
-    its walls standing to 1.4 m).
+    (:func:`~pyheracles.supports.piers.walled_at_both_ends`).
 
     The wall between a door and a window, or between two doors, stands free from the
     floor up to the lintels and is cut off like a pier; the wall above the lintels is
@@ -507,12 +497,7 @@ def wall_piece_in_bands(
     if not upper:
         return False
     axis = np.array([np.cos(sh["angle"]), np.sin(sh["angle"])])
-    return any(
-        walled_at_both_ends(lines + upper, axis)
-        # or two walls meeting at it, each beyond one of its ends (a corner)
-        or walled_piece([line for line in lines + upper if line[2]])
-        for lines in foot_lines or [[]]
-    )
+    return any(walled_at_both_ends(lines + upper, axis) for lines in foot_lines or [[]])
 
 
 #: Height bands of a pier candidate in which wall faces on faces it shows run on beyond
