@@ -64,3 +64,17 @@ def openings_over(wall, ops: list[dict]) -> list[int]:
         out.append(sum(abs(0.5 * (q.u_min + q.u_max) - uc) < 0.5 * o["width_m"]
                        and q.z_max > z0 and q.z_min < z1 for q in wall.openings))  # fmt: skip
     return out
+
+
+def faces_along_x(*clouds: np.ndarray) -> tuple[np.ndarray, list]:
+    """(points, faces): one ``WallFace`` facing +x per cloud, at its points' mean x, each
+    taking the next block of indices of the stacked points."""
+    from pyheracles.walls.model import WallFace
+
+    faces, start = [], 0
+    n = np.array([1.0, 0.0, 0.0])
+    for pts in clouds:
+        idx = np.arange(start, start + len(pts))
+        faces.append(WallFace(n, float(np.mean(pts @ n)), idx, 0.002))
+        start += len(pts)
+    return np.vstack(clouds), faces

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from church_walls import faces_along_x
 from pyheracles.walls.model import WallFace, WallParams
 
 
@@ -70,16 +71,6 @@ def test_pier_with_pews_at_its_foot_is_no_face() -> None:
     assert find_faces(xyz, np.arange(len(xyz)), normals, WallParams()) == []
 
 
-def _faces(*clouds: np.ndarray) -> tuple[np.ndarray, list[WallFace]]:
-    faces, start = [], 0
-    n = np.array([1.0, 0.0, 0.0])
-    for pts in clouds:
-        idx = np.arange(start, start + len(pts))
-        faces.append(WallFace(n, float(np.mean(pts @ n)), idx, 0.002))
-        start += len(pts)
-    return np.vstack(clouds), faces
-
-
 def test_strips_past_both_ends_pair_with_the_inner_face() -> None:
     """Church draw 14, east wall (1.09 m): the inner face runs 7.35 m between the side
     walls' inner faces, up to 13 m; the outer face's strips run past both of its ends
@@ -90,7 +81,7 @@ def test_strips_past_both_ends_pair_with_the_inner_face() -> None:
     inner = np.c_[np.full(60000, 1.09), rng.uniform(-3.67, 3.67, 60000),
                   rng.uniform(0.65, 13.0, 60000)]  # fmt: skip
     outer = _east_outer(rng)
-    xyz, faces = _faces(inner, outer)
+    xyz, faces = faces_along_x(inner, outer)
     assert pair_faces_of(xyz, faces) == [(0, 1)]
 
 
@@ -104,9 +95,9 @@ def test_strip_past_one_end_pairs_and_a_pier_past_the_end_does_not() -> None:
     outer = _east_outer(rng)
     outer = outer[(outer[:, 1] > 0) | (outer[:, 2] >= 13.0)]
     pier = np.c_[np.full(4000, -0.3), rng.uniform(3.72, 4.7, 4000), rng.uniform(1.8, 7.2, 4000)]
-    xyz, faces = _faces(inner, outer)
+    xyz, faces = faces_along_x(inner, outer)
     assert pair_faces_of(xyz, faces) == [(0, 1)]
-    xyz, faces = _faces(inner, pier)
+    xyz, faces = faces_along_x(inner, pier)
     assert pair_faces_of(xyz, faces) == [(0,), (1,)]
 
 

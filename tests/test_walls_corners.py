@@ -4,18 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from pyheracles.walls.model import WallFace, WallParams
+from church_walls import faces_along_x
+from pyheracles.walls.model import WallParams
 from pyheracles.walls.pairing import pair_faces
-
-
-def _faces(*clouds: np.ndarray) -> tuple[np.ndarray, list[WallFace]]:
-    faces, start = [], 0
-    n = np.array([1.0, 0.0, 0.0])
-    for pts in clouds:
-        idx = np.arange(start, start + len(pts))
-        faces.append(WallFace(n, float(np.mean(pts @ n)), idx, 0.002))
-        start += len(pts)
-    return np.vstack(clouds), faces
 
 
 def test_strip_beside_a_tower_pairs_with_the_inner_face() -> None:
@@ -31,7 +22,7 @@ def test_strip_beside_a_tower_pairs_with_the_inner_face() -> None:
                   rng.uniform(0.0, 13.5, 60000)]  # fmt: skip
     strip = np.c_[np.zeros(8000), rng.uniform(2.96, 4.15, 8000), rng.uniform(-0.3, 13.0, 8000)]
     tower = np.c_[np.zeros(8000), rng.uniform(-2.86, 2.86, 8000), rng.uniform(16.8, 24.5, 8000)]
-    xyz, faces = _faces(inner, strip, tower)
+    xyz, faces = faces_along_x(inner, strip, tower)
     assert pair_faces(xyz, faces, WallParams()) == [(0, 1), (2,)]  # the tower stays alone
 
 
@@ -57,5 +48,5 @@ def test_face_wholly_past_the_end_does_not_pair() -> None:
                   rng.uniform(0.3, 9.2, 40000)]  # fmt: skip
     strip = np.c_[np.full(3000, 24.805), rng.uniform(1.46, 2.6, 3000), rng.uniform(4.7, 8.2, 3000)]
     pier = np.c_[np.full(4000, 22.355), rng.uniform(5.95, 6.92, 4000), rng.uniform(1.8, 7.2, 4000)]
-    xyz, faces = _faces(inner, strip, pier)
+    xyz, faces = faces_along_x(inner, strip, pier)
     assert pair_faces(xyz, faces, WallParams()) == [(0, 1), (2,)]
