@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.supports.core import Array
+from pyheracles.supports.piers import rect_coords
 
 __all__ = ["ARC_ON_SURFACE_SHARE", "arc_owner", "arc_wall_piers", "surface_offsets"]
 
@@ -117,11 +118,7 @@ def arc_wall_piers(xy: Array, shapes: list[dict], tol: float) -> set[int]:
             continue
         c = np.asarray(sh["centre"], dtype=np.float64)
         half = np.asarray(sh["half"], dtype=np.float64)
-        u = np.array([np.cos(sh["angle"]), np.sin(sh["angle"])])
-        q = xy - c
-        inside = (np.abs(q @ u) <= half[0] + tol) & (
-            np.abs(q @ np.array([-u[1], u[0]])) <= half[1] + tol
-        )
+        inside = np.all(np.abs(rect_coords(xy, c, sh["angle"])) <= half + tol, axis=1)
         pts = xy[inside]
         if len(pts) < ARC_WALL_MIN_POINTS:
             continue
