@@ -265,6 +265,10 @@ def test_a_folder_is_not_a_point_cloud_file(tmp_path: Path, rng, name: str) -> N
     with pytest.raises(InputError, match="is a folder, not a point cloud file") as exc:
         read_cloud(folder)
     assert str(folder) in str(exc.value) and "a.laz" in str(exc.value)
+    assert "(1 point cloud file there)" in str(exc.value)
+    write_cloud(_rd_cloud(rng, 10), folder / "b.ply")
+    with pytest.raises(InputError, match=r"\(2 point cloud files there\)"):
+        read_cloud(folder)
     from pyheracles.io.las import read_las
     from pyheracles.io.ply import read_ply
     from pyheracles.io.text import read_text

@@ -52,7 +52,8 @@ def check_cloud_path(path: str | Path) -> Path:
             c.name for c in p.iterdir() if c.is_file() and c.name.lower().endswith(CLOUD_SUFFIXES)
         )
         hint = (
-            f"give one file inside it, e.g. {p / inside[0]} ({len(inside)} point cloud files there)"
+            f"give one file inside it, e.g. {p / inside[0]} "
+            f"({len(inside)} point cloud file{'s' if len(inside) > 1 else ''} there)"
             if inside
             else "give the path of a point cloud file (" + ", ".join(CLOUD_SUFFIXES) + ")"
         )
