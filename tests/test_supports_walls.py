@@ -75,9 +75,9 @@ def test_wall_piece_between_windows_has_the_wall_at_its_foot() -> None:
         "with the simulator's noise drawn per ray, a piece of the broken wall (99.5 % wall "
         "points) is a ninth support again: 1.6 x 0.89 m between a door and a window whose "
         "sill is 0.21 m high, the wall runs on from one of its ends only (in 2 bands of its "
-        "height from the door's side, in none from the window's); on other scan seeds the "
-        "wall's corner between a window and a door, seen from outside as a 2.4 x 1.75 m "
-        "rectangle, walled in no band: not fixed (see cookies.walled_band_count)"
+        "height from the door's side, in none from the window's): not fixed (see "
+        "cookies.walled_band_count); the wall's corner between a window and a door of "
+        "noise draws 2 and 3 is a wall piece (tests/test_supports_corner_pieces.py)"
     ),
 )
 def test_ruin_wall_piece_is_no_pier_on_draw_3() -> None:

@@ -12,6 +12,7 @@ from scipy.spatial import cKDTree
 
 from pyheracles.segment.euclidean import voxel_clusters
 from pyheracles.supports.core import Array, Scales, SupportParams
+from pyheracles.supports.corner_walls import shown_corner
 from pyheracles.supports.face_rise import face_rise_along_wall
 from pyheracles.supports.floors import foot_floor
 from pyheracles.supports.kernels import REACH_MARGIN_M, cookie_candidates
@@ -472,7 +473,23 @@ def wall_piece_in_bands(
     under its top (:data:`~pyheracles.supports.piers.UPPER_FROM_M` to
     :data:`~pyheracles.supports.piers.UPPER_TO_M` below it), one end in one band and
     the other in the other if need be
-    (:func:`~pyheracles.supports.piers.walled_at_both_ends`).
+    (:func:`~pyheracles.supports.piers.walled_at_both_ends`), or two of them, on faces
+    it shows and at least 45 degrees apart, run on beyond one of its ends each, in
+    either band, parallel to its sides
+    (:func:`~pyheracles.supports.corner_walls.shown_corner`: a corner).
+
+    Under the top of an anta, the echinus of the column in antis 0.6 m beyond its end
+    was read as a line 9 degrees across its side and flush with it at one corner: with
+    the cella wall at its foot, two "walls" met at it (the temple scene of
+    :mod:`pyheracles.synthetic.buildings`); a wall flush with a face runs parallel to it.
+
+    Where two walls meet between a window in one and a door in the other, the section
+    cuts the corner off like a pier, and the shadows of the supports standing in front
+    of the walls cut its faces off the walls beside it over most of its height: only
+    under its top do both walls run on from it, beyond one end each (supports draw 0:
+    an inner corner 1.2 x 0.56 m between a window and the next wall, seen from inside;
+    draw 3, noise draws 2 and 3: a ruin's corner block between a window and a door,
+    its walls standing to 1.4 m).
 
     The wall between a door and a window, or between two doors, stands free from the
     floor up to the lintels and is cut off like a pier; the wall above the lintels is
@@ -497,7 +514,12 @@ def wall_piece_in_bands(
     if not upper:
         return False
     axis = np.array([np.cos(sh["angle"]), np.sin(sh["angle"])])
-    return any(walled_at_both_ends(lines + upper, axis) for lines in foot_lines or [[]])
+    return any(
+        walled_at_both_ends(lines + upper, axis)
+        # or two walls meeting at it, each beyond one of its ends (a corner)
+        or shown_corner(lines + upper, axis, sh["half"], sc.tol)
+        for lines in foot_lines or [[]]
+    )
 
 
 #: Height bands of a pier candidate in which wall faces on faces it shows run on beyond
