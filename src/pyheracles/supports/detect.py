@@ -41,6 +41,7 @@ from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.faceon import face_on_piers
 from pyheracles.supports.height import choose_height, dense_extent
+from pyheracles.supports.line_responds import line_responds
 from pyheracles.supports.low_section import low_heights, supports_floor
 from pyheracles.supports.measure import measure_supports
 from pyheracles.supports.openings import opening_piers
@@ -253,6 +254,16 @@ def detect_supports_checked(
     if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
         added, thick_idx, thick_islands, free_of_walls = thick_at(h_sec, p[sec_idx, :2])
         shapes += added
+        # 2c'. responds on the building's wall face lines: a wall seen at a grazing
+        # angle is broken into pieces shorter than a support in the section, no wall
+        # island beside its responds (draw 37: eleven responds of 0.39 x 0.3 m)
+        if params.engaged:
+            thick_xy = p[thick_idx, :2]
+            for sh in line_responds(thick_xy, thick_xy.mean(axis=0), params, sc):
+                if clear_of(sh, shapes):
+                    frac = params.pier_buffer_fraction
+                    sh["buffer"] = max(params.buffer_min_m, frac * float(np.max(sh["half"])))
+                    shapes.append(sh)
         # 2d. short tight arcs of small rings that the same circle continues above and
         # below (draw 36: twin columns of 0.14 m seen over 40-80 degrees at every height)
         for sh in arc_columns(p, order, z_sorted, h_sec, thick_idx, thick_islands, params):
