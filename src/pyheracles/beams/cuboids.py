@@ -24,6 +24,7 @@ __all__ = [
     "fit_beam_cuboid",
     "fit_one_face_cuboid",
     "going_back",
+    "inward_normal",
     "join_pieces",
     "merge_and_absorb",
     "same_section",
@@ -34,7 +35,11 @@ __all__ = [
 
 
 def face_points(
-    xyz: NDArray[np.float64], f: StraightFacet, bin_m: float, free: NDArray[np.float64] | None
+    xyz: NDArray[np.float64],
+    f: StraightFacet,
+    bin_m: float,
+    free: NDArray[np.float64] | None,
+    inward: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """The facet's points plus the unclaimed cloud points on its plane past its band.
 
@@ -43,6 +48,16 @@ def face_points(
     points in no straight facet (``free``, their coordinates; the adjacent face's own edge strip
     would pile up at the edge) within 3 plane RMS of the plane, inside the
     facet's length and at most 5 cm (or 10 bins) past its band on either side.
+
+    ``inward``: the face's unit normal pointing into the beam, if known.  A
+    surface meeting the beam along a hidden side (boarding on a rafter's top, a
+    floor under a plate, straight over a sagging member) goes on outwards from
+    the face's plane, and its points near the corner fall within the plane's
+    tolerance past the face's edge, where they moved the edge out by a
+    centimetre or more; nothing is scanned inside a beam.  Free points more
+    than one plane RMS outside the plane are left out: the face's own scatter
+    keeps most of its points within that, the other surface's points spread
+    evenly over the whole tolerance outwards.
     """
     if free is None:
         return xyz[f.index]
@@ -55,14 +70,33 @@ def face_points(
     hi = own.max(axis=0) + margin
     cand = free[np.all((free >= lo) & (free <= hi), axis=1)]
     rel = cand - f.centre
+    tol = max(3.0 * f.plane_rms, bin_m)
     keep = (
-        (np.abs(rel @ f.normal) <= max(3.0 * f.plane_rms, bin_m))
+        (np.abs(rel @ f.normal) <= tol)
         & (rel @ f.axis >= t.min())
         & (rel @ f.axis <= t.max())
         & (rel @ across >= s.min() - margin)
         & (rel @ across <= s.max() + margin)
     )
+    if inward is not None:
+        keep &= rel @ inward >= -f.plane_rms
     return np.vstack([own, cand[keep]])
+
+
+def inward_normal(
+    f: StraightFacet, others: NDArray[np.float64], tol: float
+) -> NDArray[np.float64] | None:
+    """The facet's unit normal pointing towards the other faces of its beam (``others``).
+
+    ``None`` when the other faces' points lie within ``tol`` (metres) of the
+    facet's plane on average (no side of the plane holds the beam).
+    """
+    if len(others) == 0:
+        return None
+    depth = float(np.mean((others - f.centre) @ f.normal))
+    if abs(depth) <= tol:
+        return None
+    return f.normal * np.sign(depth)
 
 
 #: A side going back from a one-face band's edge must reach past this many noise
@@ -229,7 +263,12 @@ def fit_beam_cuboid(
 
         offsets = np.array([np.median(along(xyz[f.index])) for f in facing])
         if across:
-            a_vals = np.concatenate([along(face_points(xyz, f, bin_m, free)) for f in across])
+            a_vals = np.concatenate(
+                [
+                    along(face_points(xyz, f, bin_m, free, inward_normal(f, pts, bin_m)))
+                    for f in across
+                ]
+            )
             e_lo, e_hi = face_edges(a_vals, bin_m)
         else:
             e_lo, e_hi = half_max_edges(along(pts), bin_m)
