@@ -13,7 +13,7 @@ from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.grouping import UnionFind
 from pyheracles.beams.model import BeamCuboid, BeamParams, StraightFacet
 from pyheracles.beams.piece_joins import PieceFace, gap_clear, same_face
-from pyheracles.beams.sections import Bow, centre_line_bow, face_edges
+from pyheracles.beams.sections import Bow, centre_line_bow, face_edges, off_seen_sides
 from pyheracles.errors import DegenerateGeometryError
 
 __all__ = [
@@ -269,7 +269,8 @@ def fit_beam_cuboid(
                     for f in across
                 ]
             )
-            e_lo, e_hi = face_edges(a_vals, bin_m)
+            tol_f = np.array([max(3.0 * f.plane_rms, bin_m) for f in facing])
+            e_lo, e_hi = face_edges(off_seen_sides(a_vals, offsets, tol_f), bin_m)
         else:
             e_lo, e_hi = half_max_edges(along(pts), bin_m)
         if across:

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.geometry.groups import group_medians
 
-__all__ = ["Bow", "centre_line_bow", "face_edges"]
+__all__ = ["Bow", "centre_line_bow", "face_edges", "off_seen_sides"]
 
 
 #: Points per bin of a face's profile read finely (twice that per scan-line bin).
@@ -229,3 +229,31 @@ def centre_line_bow(
     if abs(b2) <= BOW_MIN_SIGNIFICANCE * se_b2:
         return Bow()
     return Bow(t0=t0, b1=float(sol[n_f]), b2=b2)
+
+
+def off_seen_sides(
+    values: NDArray[np.float64], seen: NDArray[np.float64], tol: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The offsets of the points across a beam's faces without those on its seen sides.
+
+    ``values``: offsets (metres) of the points of the faces across one direction
+    of the section (their own and the free points on their planes); ``seen``: the
+    offsets of the faces seen facing that direction, ``tol`` their tolerances
+    (metres).  A seen side is located by its own face; the edge strip of that
+    face, whose points lie on both planes at the corner, piles up there (several
+    times the density of a sparse face across it) and set the half-density
+    level of the profile: both edges closed in round that pile and the hidden
+    side came out inside the beam (roof draw 14: a common rafter's hidden
+    underside 3 cm inside).  The values within ``tol`` of a seen face at an end
+    of the profile (at most a tenth of the values beyond it) are left out; all are
+    kept when fewer than ten others remain.
+    """
+    if len(seen) == 0 or len(values) < 10:
+        return values
+    above = np.mean(values[:, None] > (seen + tol)[None, :], axis=0)
+    below = np.mean(values[:, None] < (seen - tol)[None, :], axis=0)
+    side = np.minimum(above, below) <= 0.1
+    if not side.any():
+        return values
+    near = np.any(np.abs(values[:, None] - seen[None, side]) <= tol[None, side], axis=1)
+    return values if int((~near).sum()) < 10 else values[~near]
