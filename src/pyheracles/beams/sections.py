@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pyheracles.beams.facets import half_max_edges
 from pyheracles.geometry.groups import group_medians
 
 __all__ = ["Bow", "centre_line_bow", "face_edges", "off_seen_sides"]
@@ -28,14 +27,17 @@ EDGE_MIN_BIN_M = 0.002
 EDGE_PILE_REACH_M = 0.006
 #: A bin at a face's edge holding this many times the plateau count is a pile.
 EDGE_PILE_RATIO = 1.5
+#: A sparse profile (no more than ``2 EDGE_DENSE_COUNT`` points per scan-line bin) is
+#: read in bins of this fraction of a scan-line bin (no finer than ``EDGE_MIN_BIN_M``).
+EDGE_SPARSE_SUBBINS = 4
 
 
 def face_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, float]:
     """Edges of the points of a beam's faces across one direction of its section.
 
     As :func:`~pyheracles.beams.facets.half_max_edges` (half the plateau
-    density), but read finer where the points allow it, and with a rule for
-    a surface meeting the face at its edge:
+    density), but read in finer bins, and with a rule for a surface meeting the
+    face at its edge:
 
     - a dense profile (a plateau of more than ``2 EDGE_DENSE_COUNT`` points per
       ``bin_m`` bin) is read again in bins holding about ``EDGE_DENSE_COUNT``
@@ -46,13 +48,20 @@ def face_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, float]
       point put the edge up to a bin off, and the 3-bin smoothing carried the
       points of a surface lying past the edge (boarding left straight over a
       sagging rafter) across the gap between them;
-    - there, a pile at the edge, a bin holding ``EDGE_PILE_RATIO`` times the
+    - a sparse profile is read the same way in bins of ``1 / EDGE_SPARSE_SUBBINS``
+      of ``bin_m``: in bins of ``bin_m`` aligned on its first point the last bin
+      may straddle the edge and hold more than half the plateau count (a few
+      points of a surface meeting the face there, the boarding on a rafter's
+      hidden top), and the edge was then the last point, up to a bin out (a
+      sparse rafter's top read 2-6 mm out, up to a bin in 8 noise draws: the
+      bins were aligned on the far end, which the seen face's corner strip
+      moves);
+    - on a dense profile, a pile at the edge, a bin holding ``EDGE_PILE_RATIO`` times the
       plateau count, is the trace of a surface meeting the face (the boarding
       on a rafter's hidden top, the edge strip of an adjacent face seen
       edge-on): the edge is the pile's median, not its outer half-density
       point, which noise puts beyond it.
     """
-    lo, hi = half_max_edges(values, bin_m)
     v_lo = float(values.min())
     nb = max(int(np.ceil((float(values.max()) - v_lo) / bin_m)), 1)
     coarse = np.bincount(
@@ -61,9 +70,11 @@ def face_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, float]
     if nb >= 3:
         coarse = np.convolve(coarse, np.ones(3) / 3.0, mode="same")
     level = float(np.median(coarse[coarse >= 0.25 * coarse.max()]))
-    if level <= 2 * EDGE_DENSE_COUNT:
-        return lo, hi
-    step = max(bin_m * EDGE_DENSE_COUNT / level, EDGE_MIN_BIN_M)
+    sparse = level <= 2 * EDGE_DENSE_COUNT
+    if sparse:
+        step = max(bin_m / EDGE_SPARSE_SUBBINS, EDGE_MIN_BIN_M)
+    else:
+        step = max(bin_m * EDGE_DENSE_COUNT / level, EDGE_MIN_BIN_M)
     level *= step / bin_m  # the plateau's count per fine bin
     half = 0.5 * level
     start = v_lo - step  # an empty bin before the first point, and two after the last
@@ -99,6 +110,8 @@ def face_edges(values: NDArray[np.float64], bin_m: float) -> tuple[float, float]
         return float(np.median(values[np.abs(values - c) <= 1.5 * step]))
 
     left, right = cross(i - 1, i), cross(j, j + 1)
+    if sparse:  # too few points per fine bin to tell a pile from the noise
+        return left, right
     p_lo, p_hi = pile(i, min(i + reach, j)), pile(max(j - reach, i), j)
     left = left if p_lo is None else max(left, p_lo)
     right = right if p_hi is None else min(right, p_hi)
