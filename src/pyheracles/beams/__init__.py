@@ -43,7 +43,7 @@ Thesis chapter 6.3 (Murtiyoso 2020; MATLAB ``regiongrowingnormals``,
    when the band is convex (its side points lie behind it, away from the
    room it was scanned from; a boarding strip between two rafters is a
    concave channel), with the depth from its side points or flagged as not
-   measured (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`);
+   measured (:func:`~pyheracles.beams.one_face.fit_one_face_cuboid`);
 4. collinear pieces of one beam (cut by a crossing beam in an X joint or by
    a shadow) are merged, and :func:`fit_beam_cuboid` fits one oriented cuboid
    per beam from its facets, lengthened over the short or sparse ends that

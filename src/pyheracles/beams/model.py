@@ -88,7 +88,7 @@ class BeamParams:
         Keep beams seen on one face only (their sides too sparse or hidden for
         a facet): a convex straight band at least twice ``min_elongation``
         times as long as wide, with the depth behind it read from its side
-        points when there are any (:func:`~pyheracles.beams.cuboids.fit_one_face_cuboid`).
+        points when there are any (:func:`~pyheracles.beams.one_face.fit_one_face_cuboid`).
     sparse_faces
         Grow regions again, with fewer neighbours, on the sparse parts of the
         cloud that no facet took (a far slope's narrow faces scanned at 1.5-3 cm,
