@@ -12,7 +12,15 @@ from pyheracles.beams.bands import edge_line_direction
 from pyheracles.beams.facets import half_max_edges
 from pyheracles.beams.model import BeamCuboid, StraightFacet
 
-__all__ = ["NOISE_TAIL_MARGINS", "edge_coverage", "fit_one_face_cuboid", "going_back"]
+__all__ = [
+    "NOISE_TAIL_MARGINS",
+    "SIDE_RUN_SHARE",
+    "SIDE_RUN_WINDOW_M",
+    "edge_coverage",
+    "fit_one_face_cuboid",
+    "going_back",
+    "side_run",
+]
 
 
 #: A side going back from a one-face band's edge must reach past this many noise
@@ -20,6 +28,43 @@ __all__ = ["NOISE_TAIL_MARGINS", "edge_coverage", "fit_one_face_cuboid", "going_
 #: 3 sigma of Gaussian noise, 90 % lie within 3.64 sigma (1.21 margins); the band's
 #: own scatter, or its surface going on at a tilt of a few degrees, reaches no farther.
 NOISE_TAIL_MARGINS = 1.5
+
+
+#: The points of a side going back from a band's edge are read in windows of this
+#: many metres (no fewer than 3 profile bins) ...
+SIDE_RUN_WINDOW_M = 0.03
+#: ... and the side ends at the first window holding less than this share of the
+#: fullest window before it (the plateau of :func:`half_max_edges` is the bins
+#: above a quarter of the fullest one).
+SIDE_RUN_SHARE = 0.25
+
+
+def side_run(depth: NDArray[np.float64], bin_m: float) -> NDArray[np.float64]:
+    """The depths (metres behind a face's plane) of a side's points up to the side's end.
+
+    A side face leaves the band's edge and is seen from there back to the beam's
+    hidden corner, without a gap.  Another surface behind the beam (a stored
+    timber, a wall), apart from it by a gap holding a few stray points, may hold
+    more points in a narrower range than the side: the half-density level of the
+    whole profile was then that surface's, and the depth its far edge (roof draw
+    6: a common rafter's piece seen on its side, its underside 9 cm deep, a pile
+    of 105 points 24-26 cm behind the face, depth 0.255 m for 0.087, and the
+    piece was not joined to the rest of the rafter).  Walking from the face,
+    the side ends at the first ``SIDE_RUN_WINDOW_M`` window holding less than
+    ``SIDE_RUN_SHARE`` of the fullest window before it; the depths before the end
+    of that window are returned (a step edge keeps its half-density point).
+    """
+    if len(depth) == 0:
+        return depth
+    d0 = float(depth.min())
+    nb = int(np.ceil((float(depth.max()) - d0) / bin_m)) + 1
+    counts = np.bincount(((depth - d0) / bin_m).astype(np.int64), minlength=nb).astype(float)
+    k = max(round(SIDE_RUN_WINDOW_M / bin_m), 3)
+    window = np.convolve(counts, np.ones(k), mode="full")[k - 1 : k - 1 + nb]  # bins i..i+k-1
+    low = np.flatnonzero(window < SIDE_RUN_SHARE * np.maximum.accumulate(window))
+    if len(low) == 0:
+        return depth
+    return depth[depth < d0 + (int(low[0]) + k) * bin_m]
 
 
 def edge_coverage(t: NDArray[np.float64], t_range: tuple[float, float], step: float) -> float:
@@ -215,7 +260,7 @@ def fit_one_face_cuboid(
     for edge in (s_lo, s_hi):
         sel = back & (np.abs(s_s - edge) <= e)
         if sel.sum() >= min_side_points and edge_coverage(t_s[sel], rng, step) >= min_cover:
-            far = half_max_edges(-front * h_s[sel], bin_m)[1]
+            far = half_max_edges(side_run(-front * h_s[sel], bin_m), bin_m)[1]
             if far < 0.9 * max_depth_m:
                 depths.append(far)
     measured = bool(depths)
