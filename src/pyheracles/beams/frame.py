@@ -329,6 +329,7 @@ def leaning(
     out = np.zeros(len(beams), bool)
     if not in_frame.any():
         return out
+    group = components(len(beams), joints)
     for i, b in enumerate(beams):
         mine = [jt for jt in joints if i + 1 in jt.members]
         plumb = b.inclination_deg >= p.plumb_deg
@@ -337,8 +338,10 @@ def leaning(
         low_end = 0.0 if b.axis[2] >= 0 else 1.0  # parameter of the lower end
         upper = all(abs(jt.at[jt.members.index(i + 1)] - low_end) > 0.5 for jt in mine)
         lowest = _axis_foot(b)
-        rest = in_frame.copy()
-        rest[i] = False  # the frame's bottom without this beam
+        # the bottom of the frame it is joined to, without it: another group (a pile
+        # of loose timber on the floor) does not lower it
+        rest = in_frame & (group == group[i])
+        rest[i] = False
         if not rest.any():
             continue
         bottom, _ = frame_levels(beams, rest, p.roles)
