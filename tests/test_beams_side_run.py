@@ -107,3 +107,21 @@ def test_side_run_stops_at_the_first_gap():
     assert len(run) >= 70
     # a side without a gap is kept whole
     assert len(side_run(side, 0.009)) == len(side)
+
+
+def test_a_side_seen_on_a_few_points_is_read_to_its_hidden_corner():
+    """Roof draw 8, common rafter 65 seen on its underside: the side going back
+    from one edge holds 4 points near the face (a grazing view), then none, then
+    the boarding on the rafter's top at its depth (1 cm bins: 2, 1, 1, 0, 0, 0,
+    21, 352).  The first gap came after 4 points and the depth was 0.053 m for
+    0.107; a run needs ``min_points`` before its end: the whole profile is read."""
+    rng = np.random.default_rng(8)
+    near = np.array([0.0, 0.004, 0.012, 0.022])
+    corner = rng.uniform(0.06, 0.07, 21)
+    top = rng.uniform(0.07, 0.08, 352)
+    depth = np.concatenate([near, corner, top])
+    assert len(side_run(depth, 0.0088)) == len(depth)
+    # with 70 points of side before the gap it still ends there (draw 6)
+    side = rng.uniform(0.0, 0.09, 70)
+    pile = rng.uniform(0.24, 0.26, 105)
+    assert side_run(np.concatenate([side, pile]), 0.0088).max() < 0.14
