@@ -53,6 +53,13 @@ def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
 LOW_CARRY_SHARE = 0.8
 #: The carried level is a median of at least this many supports that carry.
 MIN_CARRYING = 3
+#: A candidate ending under what it "carries", the plan of its top empty up to it
+#: (:func:`~pyheracles.supports.shaft_above.ends_short`), is judged by its own top with
+#: a margin: its top must lie at least this share of the way up to the carried level.
+#: The top of a column may be unseen, not absent (draw 36: a column seen from 1.34 to
+#: 2.76 m under a ceiling at 3.15 m, its capital unseen, 0.77 of the way); the posts of
+#: pulpits and the bars of fences end 0.50-0.59 of the way (draws 7, 8, 12, 16, 25).
+SHORT_TOP_SHARE = 0.7
 
 
 def low_carriers(
@@ -60,6 +67,7 @@ def low_carriers(
     carries: list[bool],
     carried_z: list[float],
     sparse: list[bool] | None = None,
+    short: list[bool] | None = None,
 ) -> set[int]:
     """Indices of the columns, of the piers found in the thick section only
     (``sparse``) and, in a ruin, of the piers that carry something, that end below the
@@ -86,7 +94,17 @@ def low_carriers(
     3.9 m tall), not by its points when it carries nothing: its top may be shadowed
     (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
     building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
-    m tall cut at 4.1 m)."""
+    m tall cut at 4.1 m).
+
+    ``short``: whether each ends short of what it carries, the plan of its top empty
+    from there up to it (:func:`~pyheracles.supports.shaft_above.ends_short`).  In a
+    standing building such a column (or sparse pier) is judged by its own top against
+    :data:`SHORT_TOP_SHARE` of the way, not by what it "carries": the post of a
+    pulpit, its tub's underside unseen, "carries" the ceiling 1-3 m above (supports
+    draws 12 and 16: posts 1.9-2.4 m tall, 0.51-0.56 of the way up to the attic or the
+    ceiling), a fence's bars the attic over its top rail (draw 25: 0.50 of the way).
+    A column cut short by its cookie (a scaffold's deck round it: held-out draw 46)
+    shows its shaft above its points and is judged by what it carries."""
     levels = [t for t, c in zip(carried_z, carries, strict=True) if c and np.isfinite(t)]
     if len(levels) >= MIN_CARRYING:
         level = float(np.median(levels))
@@ -105,8 +123,10 @@ def low_carriers(
         )
         if not judged or not (c or standing):
             continue
-        top = t if c and np.isfinite(t) else float(r["z_max"])
-        if top - float(r["z_min"]) < LOW_CARRY_SHARE * (level - float(r["z_min"])):
+        ends = standing and short is not None and short[k]  # under what it "carries"
+        top = t if c and np.isfinite(t) and not ends else float(r["z_max"])
+        need = SHORT_TOP_SHARE if ends else LOW_CARRY_SHARE
+        if top - float(r["z_min"]) < need * (level - float(r["z_min"])):
             out.add(k)
     return out
 

@@ -58,6 +58,7 @@ from pyheracles.supports.rings import (
     wall_face_lines,
 )
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
+from pyheracles.supports.shaft_above import ends_short
 
 # ------------------------------------------------------------------------------ main
 #: The lower section (supports ending below the automatic one) lies this many times
@@ -430,7 +431,16 @@ def detect_supports_checked(
         rows = [r for k, r in enumerate(rows) if k not in thin]
         members = [m for k, m in enumerate(members) if k not in thin]
     carries, tops, covers, reach, sparse = ([m[j] for m in members] for j in (1, 2, 3, 4, 5))
-    low = low_carriers(rows, carries, tops, sparse) | covered_free_columns(rows, reach, covers)
+    short = ends_short(p, rows, members, band, sc.tol)
+    low = low_carriers(rows, carries, tops, sparse, short)
+    short_low = low - low_carriers(rows, carries, tops, sparse)
+    if short_low:
+        notes.append(
+            f"{len(short_low)} candidate{'s' if len(short_low) > 1 else ''} ending under the "
+            "surface found above, the plan of the top empty up to it (the posts of pulpits, "
+            "the bars of fences): judged by the own top"
+        )
+    low |= covered_free_columns(rows, reach, covers)
     if low:
         notes.append(
             f"{len(low)} candidate{'s' if len(low) > 1 else ''} ending lower than "
