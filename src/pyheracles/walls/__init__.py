@@ -21,12 +21,14 @@ Method
    ``min_thickness_m`` to ``max_thickness_m`` and which are seen over the same
    stretch of wall (half the smaller face's cells shared) form one wall, the pairs
    sharing most taken first (mid-plane, thickness = their separation); a face
-   between the two faces of a wall (panes, leaves, reveals) is in no wall; a face
-   alone is a wall seen on one face (thickness NaN, said in ``notes``).  A wall that
-   another wall abuts along its length from the building's side (a church's front,
-   where the arcades between nave and aisles meet it) is cut there: its faces, and
-   every face on their planes, are cut at the junction and paired again
-   (:mod:`~pyheracles.walls.junctions`).
+   between the two faces of a wall (panes, leaves, reveals) is in no wall; a lone
+   face on the plane of a wall's face and within its other face's extent is a piece
+   of that face (a face crossed by a roof: a nave arcade's aisle side under the
+   aisle's roof, its clerestory above); a face alone is a wall seen on one face
+   (thickness NaN, said in ``notes``).  A wall that another wall abuts along its
+   length from the building's side (a church's front, where the arcades between nave
+   and aisles meet it) is cut there: its faces, and every face on their planes, are
+   cut at the junction and paired again (:mod:`~pyheracles.walls.junctions`).
 4. Outline: the faces' points on a ``cell_m`` grid of the wall plane ``(u, z)``,
    each face's gaps closed at its own point density; the envelope spans each column
    from the wall's foot to its top.  Empty parts of the envelope are openings when

@@ -9,9 +9,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pyheracles.walls.model import Array, WallFace, WallParams
-from pyheracles.walls.planes import plane_frame
+from pyheracles.walls.planes import fit_vertical, plane_frame
 
-__all__ = ["material_side", "pair_faces", "reveal_drafts", "shared_cells"]
+__all__ = ["join_coplanar", "material_side", "pair_faces", "reveal_drafts", "shared_cells"]
 
 
 def pair_faces(xyz: Array, faces: list[WallFace], p: WallParams) -> list[tuple[int, ...]]:
@@ -65,6 +65,65 @@ def pair_faces(xyz: Array, faces: list[WallFace], p: WallParams) -> list[tuple[i
              and any(_between(xyz, faces, k, g, cos_par, p) for g in groups)}  # fmt: skip
     groups += [(i,) for i in range(len(faces)) if i not in used and i not in inner]
     return groups
+
+
+def join_coplanar(
+    xyz: Array, faces: list[WallFace], groups: list[tuple[int, ...]], p: WallParams
+) -> tuple[list[WallFace], list[tuple[int, ...]]]:
+    """Faces and groups (:func:`pair_faces`) with every lone face that lies on a face of
+    a pair joined to that face: on its plane (median distance within a third of
+    ``distance_m``), and within the other face's extent (nine tenths of its points
+    within its ends and between its foot and top).
+
+    A wall's face crossed by a roof is seen in two pieces, one above the other: a nave
+    arcade's aisle side below the aisle's lean-to roof and its clerestory above it.  Only
+    the clerestory pairs with the nave side; the aisle side alone was a wall of its
+    own, seen on one face, and its junctions, judged with a lone face's reach, cut the
+    arcade's clerestory face too (church draw 29: an apse facet's end 0.9 m from the
+    arcade cut it, and the clerestory's piece beyond the cut left a false 0.29 m window
+    beside a real one).  A piece wholly past the other face's end (a tower's face on the
+    plane of the wall's outer face) stays a face of its own.
+    """
+    pairs = [g for g in groups if len(g) == 2]
+    cos_par = math.cos(math.radians(p.parallel_deg))
+    joins: dict[int, list[int]] = {}
+    for g in groups:
+        if len(g) != 1:
+            continue
+        k = g[0]
+        fk = faces[k]
+        qk = xyz[fk.indices]
+        for a, b in (h for pair in pairs for h in (pair, pair[::-1])):
+            fa, fb = faces[a], faces[b]
+            if abs(float(fk.normal @ fa.normal)) < cos_par:
+                continue
+            if np.median(np.abs(qk @ fa.normal - fa.d)) > p.distance_m / 3:
+                continue
+            _, u = plane_frame(fa.normal, fa.d)
+            qb = xyz[fb.indices]
+            ub, uk = qb @ u, qk @ u
+            within = ((uk >= ub.min()) & (uk <= ub.max()) & (qk[:, 2] >= qb[:, 2].min())
+                      & (qk[:, 2] <= qb[:, 2].max()))  # fmt: skip
+            if np.mean(within) >= 0.9:
+                joins.setdefault(a, []).append(k)
+                break
+    if not joins:
+        return faces, groups
+    out = list(faces)
+    gone: set[int] = set()
+    for a, ks in joins.items():
+        idx = np.concatenate([faces[a].indices, *(faces[k].indices for k in ks)])
+        n, d, rms = fit_vertical(xyz[idx])
+        if rms > p.distance_m / 3:
+            continue
+        if float(n @ faces[a].normal) < 0:
+            n, d = -n, -d
+        out[a] = WallFace(n, d, idx, rms)
+        gone.update(ks)
+    keep = [i for i in range(len(out)) if i not in gone]
+    new = {i: j for j, i in enumerate(keep)}
+    return [out[i] for i in keep], [tuple(new[i] for i in g) for g in groups
+                                    if not set(g) & gone]  # fmt: skip
 
 
 def _over_stretch(

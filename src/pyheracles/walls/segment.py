@@ -14,7 +14,7 @@ from pyheracles.walls.joins import join_walls, snap_outline
 from pyheracles.walls.junctions import cut_faces, junction_cuts
 from pyheracles.walls.model import Wall, WallFace, WallParams, WallResult
 from pyheracles.walls.outlines import wall_outline
-from pyheracles.walls.pairing import material_side, pair_faces, reveal_drafts
+from pyheracles.walls.pairing import join_coplanar, material_side, pair_faces, reveal_drafts
 from pyheracles.walls.planes import fit_vertical, plane_frame, voxel_sample
 
 __all__ = ["segment_walls"]
@@ -105,13 +105,13 @@ def segment_walls(xyz: ArrayLike, params: WallParams | None = None) -> WallResul
     t = time.perf_counter()
     tree = cKDTree(pts[sample])
     sample_pts = pts[sample]
-    drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
-    drafts = _no_reveals(pts, drafts, run_on, p)
+    faces, groups = join_coplanar(pts, faces, pair_faces(pts, faces, p), p)
+    drafts = _no_reveals(pts, _drafts(pts, faces, groups, tree, p), run_on, p)
     cuts = junction_cuts(pts, drafts, p)
     if any(cuts):  # faces cut where walls abut their wall, and paired again
         faces = cut_faces(pts, faces, drafts, cuts, p)
-        drafts = _drafts(pts, faces, pair_faces(pts, faces, p), tree, p)
-        drafts = _no_reveals(pts, drafts, run_on, p)
+        faces, groups = join_coplanar(pts, faces, pair_faces(pts, faces, p), p)
+        drafts = _no_reveals(pts, _drafts(pts, faces, groups, tree, p), run_on, p)
     # outlines and openings
     for w in drafts:
         idx = np.concatenate([f.indices for f in w["faces"]])
