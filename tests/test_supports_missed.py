@@ -230,13 +230,6 @@ def test_piers_seen_from_a_corner_found_on_draw_27() -> None:
         assert f1 > 0.9
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "on the per-ray simulator's noise draw (issue 12/13 open): support 3 is not "
-        "found as a column"
-    ),
-)
 @pytest.mark.slow
 def test_large_rings_in_arcs_found_on_draw_33() -> None:
     """Draw 33: columns 3, 4, 10, 11, 14, 15, 18, 21 and 22, rings of 1.1 m radius

@@ -41,6 +41,7 @@ from pyheracles.supports.profile import (
     surface_tolerance,
     wall_beside,
 )
+from pyheracles.supports.shaft_follow import follow_shaft
 from pyheracles.threads import map_threads
 
 RING_M = 0.3  # width of the ring around a cookie that tells floor and ceiling heights
@@ -304,7 +305,8 @@ def extract_support(
     # apart than the cloud's median spacing: at that spacing it falls into pieces)
     near_sec = np.abs(cpts[:, 2] - h_sec) <= LOCAL_SLAB_M  # the spacing where it was cut
     gap = local_spacing(cpts[near_sec] if np.count_nonzero(near_sec) >= 50 else cpts)
-    lab = voxel_clusters(cpts, max(0.03, 3.0 * sc.spacing, 3.0 * gap), 1)
+    voxel = max(0.03, 3.0 * sc.spacing, 3.0 * gap)
+    lab = voxel_clusters(cpts, voxel, 1)
     in_sec = np.abs(cpts[:, 2] - h_sec) <= sc.thickness / 2
     good = np.unique(lab[in_sec & (lab > 0)])
     if len(good) == 0:
@@ -314,6 +316,12 @@ def extract_support(
     # the gap, and a pulpit's tub cut as a pier is not to be joined to its post: draw 24)
     conn = np.isin(lab, good)
     if sh["class"] != "pier":
+        # a round shaft on through the sparse stretches of its height, at their own
+        # spacing (draw 33: the dense band of the scans ends at 7-10 m of 15 m columns;
+        # not a pier: a jamb followed up its wall's face stood free of it, draw 10)
+        followed = follow_shaft(cpts, crho, conn, voxel, sc.tol)
+        sh["followed"] = int(np.count_nonzero(followed & ~conn))
+        conn = followed
         # and not below the level its foot stands on: at a dais's edge the ring holds
         # the ground beyond it, and the dais's face flush with a plinth is no piece of
         # it (the level is read in the ring's outer half: a plinth's corners reach into

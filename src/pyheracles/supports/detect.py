@@ -353,7 +353,7 @@ def detect_supports_checked(
     for k, sh in enumerate(shapes):
         if sh["class"] == "engaged_column":
             sh["neighbours"] = neighbour_discs(centres, reaches, k, FACE_REACH_M)
-    rounded = thin_piers = antae = 0
+    rounded = thin_piers = antae = followed = 0
     # the points and primitive of each support (on two processes: measure_supports)
     measured = measure_supports(p, shapes, cut, params, sc, h_sec, (z0, z1), band)
     for sh, m in zip(shapes, measured, strict=True):  # loop over supports
@@ -389,6 +389,7 @@ def detect_supports_checked(
             rejected.append(f"{sh['class']} of {len(cidx)} points: {why}")
             continue
         rows.append(row)
+        followed += sh.get("followed", 0) > 0
         members.append(
             (
                 cidx,
@@ -409,6 +410,11 @@ def detect_supports_checked(
         notes.append(
             f"{antae} pier{'s' if antae > 1 else ''} ending a wall (anta): cut off "
             "the wall at the step of their faces"
+        )
+    if followed:
+        notes.append(
+            f"{followed} support{'s' if followed > 1 else ''} followed beyond the dense band "
+            "of the scans through sparse stretches of the shaft, at their own spacing"
         )
     if rounded:
         notes.append(
