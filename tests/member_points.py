@@ -1,6 +1,6 @@
 """Points sampled on a generated timber member's faces, the F1 of a found beam against
-a member's points, and the classes of the beams found on a roof draw, shared by the beams
-tests."""
+a member's points, the classes of the beams found on a roof draw, and a facet along x
+made from given points, shared by the beams tests."""
 
 from __future__ import annotations
 
@@ -50,3 +50,23 @@ def found_classes(seed: int, noise_draw: int) -> list[str]:
         counts = np.bincount(cloud.class_id[(result.labels == i) & good], minlength=max(names) + 1)
         out.append(names[int(counts.argmax())])
     return out
+
+
+def facet_along_x(xyz: np.ndarray, index: np.ndarray, normal: np.ndarray):
+    """The :class:`~pyheracles.beams.model.StraightFacet` of the points ``xyz[index]``
+    of a beam running along x, with face normal ``normal`` (``test_beams_hidden_side_surface``,
+    ``test_beams_seen_side_corner``)."""
+    from pyheracles.beams.model import StraightFacet
+
+    x = np.array([1.0, 0.0, 0.0])
+    pts = xyz[index]
+    return StraightFacet(
+        index=index,
+        normal=normal,
+        axis=x,
+        centre=pts.mean(axis=0),
+        width=float(np.ptp(pts @ np.cross(normal, x))),
+        length=float(np.ptp(pts @ x)),
+        plane_rms=float(np.std((pts - pts.mean(axis=0)) @ normal)),
+        parent=1,
+    )

@@ -4,7 +4,9 @@ scored as the benchmark scores it (the draw-based tests of ``test_supports_face_
 a synthetic pier piece (``test_supports_wall_over_lintels``,
 ``test_supports_sparse_wall_faces``), and the walled bands of a synthetic pier piece
 beside walls (``test_supports_flush_face_lines``, ``test_supports_band_under_top``), and
-the face lines of sections (``test_supports_responds``, ``test_supports_respond_back``)."""
+the face lines of sections (``test_supports_responds``, ``test_supports_respond_back``),
+and the shafts and pulpit tubs of synthetic rooms (``test_supports_carried``,
+``test_supports_shaft_above``)."""
 
 from __future__ import annotations
 
@@ -130,3 +132,29 @@ def wall_face(y: float, x_runs, step: float = 0.02) -> np.ndarray:
     """Section points of a wall face along ``y`` over the runs ``(x0, x1)`` of ``x_runs``
     (the gaps between them are openings)."""
     return np.vstack([section_line((x0, y), (x1, y), step) for x0, x1 in x_runs])
+
+
+def tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
+    """Points every ``step`` metres round a vertical cylinder of ``radius`` about
+    ``centre`` (x, y) from ``z0`` to ``z1``."""
+    n = max(8, int(2 * np.pi * radius / step))
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    tt, zz = np.meshgrid(t, np.arange(z0, z1 + 1e-9, step))
+    return np.c_[
+        centre[0] + radius * np.cos(tt.ravel()), centre[1] + radius * np.sin(tt.ravel()), zz.ravel()
+    ]
+
+
+def tub_sides(centre, z: float, step: float) -> np.ndarray:
+    """The four sides of a pulpit's 1.2 x 1.0 m tub about ``centre``, 1.05 m high from
+    ``z`` (its underside, level with the scanners, unseen), every ``step`` metres."""
+    cx, cy = centre
+    up = np.arange(z, z + 1.05 + 1e-9, step)
+    out = []
+    for x in (cx - 0.6, cx + 0.6):
+        u, v = np.meshgrid(np.arange(cy - 0.5, cy + 0.5 + 1e-9, step), up)
+        out.append(np.c_[np.full(u.size, x), u.ravel(), v.ravel()])
+    for y in (cy - 0.5, cy + 0.5):
+        u, v = np.meshgrid(np.arange(cx - 0.6, cx + 0.6 + 1e-9, step), up)
+        out.append(np.c_[u.ravel(), np.full(u.size, y), v.ravel()])
+    return np.vstack(out)

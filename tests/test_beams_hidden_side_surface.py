@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from member_points import facet_along_x
 from pyheracles.beams.cuboids import fit_beam_cuboid, inward_normal
 from pyheracles.beams.model import StraightFacet
 
@@ -34,20 +35,6 @@ BOARDING = 2.0
 STATION = (1.0, -2.0)
 #: Scan-line bin of the step on this cloud, metres.
 BIN_M = 0.008
-
-
-def _facet(xyz: np.ndarray, index: np.ndarray, normal: np.ndarray) -> StraightFacet:
-    pts = xyz[index]
-    return StraightFacet(
-        index=index,
-        normal=normal,
-        axis=X,
-        centre=pts.mean(axis=0),
-        width=float(np.ptp(pts @ np.cross(normal, X))),
-        length=float(np.ptp(pts @ X)),
-        plane_rms=float(np.std((pts - pts.mean(axis=0)) @ normal)),
-        parent=1,
-    )
 
 
 def _ray_noise(pts: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -91,7 +78,7 @@ def rafter_under_boarding(
         )
         free.append(_ray_noise(board, rng))
     k = int(in_b.sum())
-    facets = [_facet(xyz, np.arange(k), Z), _facet(xyz, np.arange(k, len(xyz)), Y)]
+    facets = [facet_along_x(xyz, np.arange(k), Z), facet_along_x(xyz, np.arange(k, len(xyz)), Y)]
     return xyz, facets, np.vstack(free)
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from member_points import facet_along_x
 from pyheracles.beams.cuboids import fit_beam_cuboid
 from pyheracles.beams.model import StraightFacet
 from pyheracles.beams.sections import off_seen_sides
@@ -31,20 +32,6 @@ DENSE, SPARSE = 20_000, 600
 STRIP = 0.02
 #: Scan-line bin of the step on this cloud, metres.
 BIN_M = 0.011
-
-
-def _facet(xyz: np.ndarray, index: np.ndarray, normal: np.ndarray) -> StraightFacet:
-    pts = xyz[index]
-    return StraightFacet(
-        index=index,
-        normal=normal,
-        axis=X,
-        centre=pts.mean(axis=0),
-        width=float(np.ptp(pts @ np.cross(normal, X))),
-        length=float(np.ptp(pts @ X)),
-        plane_rms=float(np.std((pts - pts.mean(axis=0)) @ normal)),
-        parent=1,
-    )
 
 
 def rafter_seen_on_top_and_one_side(
@@ -66,7 +53,7 @@ def rafter_seen_on_top_and_one_side(
     in_s = (side[:, 2] >= STRIP) & (side[:, 2] <= DEPTH - STRIP)
     xyz = np.vstack([top[in_t], side[in_s]])
     k = int(in_t.sum())
-    facets = [_facet(xyz, np.arange(k), Z), _facet(xyz, np.arange(k, len(xyz)), Y)]
+    facets = [facet_along_x(xyz, np.arange(k), Z), facet_along_x(xyz, np.arange(k, len(xyz)), Y)]
     return xyz, facets, np.vstack([top[~in_t], side[~in_s]])
 
 

@@ -9,6 +9,7 @@ import numpy as np
 from pyheracles.supports import SupportParams, detect_supports
 from pyheracles.supports.carriers import low_carriers
 from pyheracles.supports.cookies import foot_levels
+from supports_draws import tub_sides, tube
 
 
 def _grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray:
@@ -20,15 +21,6 @@ def _grid(u0: float, u1: float, v0: float, v1: float, step: float) -> np.ndarray
 def _horizontal(x0, x1, y0, y1, z: float, step: float) -> np.ndarray:
     xy = _grid(x0, x1, y0, y1, step)
     return np.c_[xy, np.full(len(xy), z)]
-
-
-def _tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
-    n = max(8, int(2 * np.pi * radius / step))
-    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    tt, zz = np.meshgrid(t, np.arange(z0, z1 + 1e-9, step))
-    return np.c_[
-        centre[0] + radius * np.cos(tt.ravel()), centre[1] + radius * np.sin(tt.ravel()), zz.ravel()
-    ]
 
 
 def _tub_underside(centre, z: float, step: float) -> np.ndarray:
@@ -45,8 +37,8 @@ def _room(ceiling: float | None, post_m: float, step: float = 0.03) -> np.ndarra
     if ceiling is not None:
         parts.append(_horizontal(0.0, 9.0, 0.0, 6.0, ceiling, step))
     for x in (1.5, 3.5, 5.5, 7.5):
-        parts.append(_tube((x, 1.5), 0.15, 0.0, top, step))
-    parts += [_tube((4.5, 4.0), 0.12, 0.0, post_m, step), _tub_underside((4.5, 4.0), post_m, step)]
+        parts.append(tube((x, 1.5), 0.15, 0.0, top, step))
+    parts += [tube((4.5, 4.0), 0.12, 0.0, post_m, step), _tub_underside((4.5, 4.0), post_m, step)]
     rng = np.random.default_rng(8)
     xyz = np.vstack(parts)
     return xyz + rng.normal(0, 0.002, xyz.shape)
@@ -145,20 +137,6 @@ def assert_no_support_is_a_wall(seed: int, n_supports: int) -> None:
     assert len(found.objects) == n_supports
 
 
-def _tub_sides(centre, z: float, step: float) -> np.ndarray:
-    """The four sides of a pulpit's 1.2 x 1.0 m tub, 1.05 m high from ``z`` (its
-    underside, level with the scanners, unseen)."""
-    cx, cy = centre
-    out = []
-    for x in (cx - 0.6, cx + 0.6):
-        yz = _grid(cy - 0.5, cy + 0.5, z, z + 1.05, step)
-        out.append(np.c_[np.full(len(yz), x), yz])
-    for y in (cy - 0.5, cy + 0.5):
-        xz = _grid(cx - 0.6, cx + 0.6, z, z + 1.05, step)
-        out.append(np.c_[xz[:, 0], np.full(len(xz), y), xz[:, 1]])
-    return np.vstack(out)
-
-
 def test_pulpit_post_in_a_ruin_is_no_broken_column() -> None:
     """Draw 26 (a roofless peristyle, columns 0.17 m in radius broken or standing at
     3.2 m): a pulpit post 0.12 m in radius, its tub's underside unseen, carried nothing
@@ -168,8 +146,8 @@ def test_pulpit_post_in_a_ruin_is_no_broken_column() -> None:
     step = 0.03
     parts = [_horizontal(0.0, 9.0, 0.0, 6.0, 0.0, step)]
     for x, top in ((1.5, 2.0), (3.5, 3.2), (3.9, 2.0), (5.5, 3.2), (7.5, 2.0)):
-        parts.append(_tube((x, 1.5), 0.17, 0.0, top, step))
-    parts += [_tube((4.5, 4.0), 0.12, 0.0, 1.6, step), _tub_sides((4.5, 4.0), 1.6, step)]
+        parts.append(tube((x, 1.5), 0.17, 0.0, top, step))
+    parts += [tube((4.5, 4.0), 0.12, 0.0, 1.6, step), tub_sides((4.5, 4.0), 1.6, step)]
     rng = np.random.default_rng(26)
     xyz = np.vstack(parts)
     xyz = xyz + rng.normal(0, 0.002, xyz.shape)

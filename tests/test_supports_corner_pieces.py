@@ -20,6 +20,7 @@ import pytest
 
 from pyheracles.supports.cookies import offset, wall_piece_in_bands
 from pyheracles.supports.core import SupportParams, scales
+from supports_draws import height_bands
 
 STEP = 0.02  # point spacing of the synthetic faces, metres
 T = 0.6  # the walls' thickness, metres
@@ -60,12 +61,7 @@ def _judge(
     """The wall-piece test of a pier candidate (rectangle ``centre``, ``half``, angle 0)
     whose own points reach ``top``, among the points ``p`` (with noise)."""
     p = p + rng.normal(0.0, 0.002, p.shape)
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
+    band = height_bands(p)
 
     sh = {"class": "pier", "centre": np.array(centre), "angle": 0.0, "half": half}
     sc = scales(STEP, SupportParams())

@@ -21,6 +21,7 @@ import pytest
 from pyheracles.supports.cookies import offset, wall_piece_in_bands
 from pyheracles.supports.core import SupportParams, scales
 from pyheracles.supports.corner_walls import along_side
+from supports_draws import height_bands
 
 STEP = 0.05  # point spacing of the synthetic surfaces, metres
 TOP = 5.4  # the anta's and the column's top, metres
@@ -77,12 +78,7 @@ def _anta_and_column_in_antis() -> np.ndarray:
 def _judge(p: np.ndarray, rng: np.random.Generator) -> bool:
     """The wall-piece test of the anta (rectangle at 0, 0, half 0.5 x 0.4, angle 0)."""
     p = p + rng.normal(0.0, 0.005, p.shape)
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
+    band = height_bands(p)
 
     half = np.array([0.5, 0.4])
     sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": half}

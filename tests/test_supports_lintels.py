@@ -17,6 +17,7 @@ import pytest
 from pyheracles.supports.cookies import offset, wall_piece_in_bands
 from pyheracles.supports.core import SupportParams, scales
 from pyheracles.supports.piers import walled_at_both_ends
+from supports_draws import height_bands
 
 STEP = 0.02  # point spacing of the synthetic faces, metres
 HALF = np.array([0.25, 0.15])  # the candidate: 0.5 m along the wall, 0.3 m thick
@@ -63,12 +64,7 @@ def _judge(
     own = _candidate(top, back)
     p = np.vstack([own, above, _floor()])
     p = p + rng.normal(0.0, 0.002, p.shape)
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
+    band = height_bands(p)
 
     sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": HALF.copy()}
     sc = scales(STEP, SupportParams())

@@ -20,35 +20,12 @@ import pytest
 from pyheracles.supports import SupportParams, detect_supports
 from pyheracles.supports.carriers import low_carriers
 from pyheracles.supports.shaft_above import GOES_ON_SHARE, ends_short, goes_on_share
-from supports_draws import height_bands, scored_supports_draw
+from supports_draws import height_bands, scored_supports_draw, tub_sides, tube
 
 
 def _plate(x0: float, x1: float, y0: float, y1: float, z: float, step: float) -> np.ndarray:
     gx, gy = np.meshgrid(np.arange(x0, x1 + 1e-9, step), np.arange(y0, y1 + 1e-9, step))
     return np.c_[gx.ravel(), gy.ravel(), np.full(gx.size, z)]
-
-
-def _tube(centre, radius: float, z0: float, z1: float, step: float) -> np.ndarray:
-    n = max(8, int(2 * np.pi * radius / step))
-    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    tt, zz = np.meshgrid(t, np.arange(z0, z1 + 1e-9, step))
-    return np.c_[
-        centre[0] + radius * np.cos(tt.ravel()), centre[1] + radius * np.sin(tt.ravel()), zz.ravel()
-    ]
-
-
-def _tub_sides(centre, z: float, step: float) -> np.ndarray:
-    """The four sides of a pulpit's 1.2 x 1.0 m tub, 1.05 m high from ``z`` (its
-    underside, level with the scanners, unseen)."""
-    cx, cy = centre
-    out = []
-    for x in (cx - 0.6, cx + 0.6):
-        g = _plate(cy - 0.5, cy + 0.5, z, z + 1.05, 0.0, step)
-        out.append(np.c_[np.full(len(g), x), g[:, 0], g[:, 1]])
-    for y in (cy - 0.5, cy + 0.5):
-        g = _plate(cx - 0.6, cx + 0.6, z, z + 1.05, 0.0, step)
-        out.append(np.c_[g[:, 0], np.full(len(g), y), g[:, 1]])
-    return np.vstack(out)
 
 
 @pytest.mark.parametrize("seed", [16, 1, 2])
@@ -60,8 +37,8 @@ def test_pulpit_post_under_a_high_ceiling_is_no_column(seed: int) -> None:
     step = 0.03
     parts = [_plate(0.0, 9.0, 0.0, 6.0, 0.0, step), _plate(0.0, 9.0, 0.0, 6.0, 3.44, step)]
     for x in (1.5, 3.5, 5.5, 7.5):
-        parts.append(_tube((x, 1.5), 0.29, 0.0, 3.44, step))
-    parts += [_tube((4.5, 4.0), 0.12, 0.0, 1.93, step), _tub_sides((4.5, 4.0), 1.93, step)]
+        parts.append(tube((x, 1.5), 0.29, 0.0, 3.44, step))
+    parts += [tube((4.5, 4.0), 0.12, 0.0, 1.93, step), tub_sides((4.5, 4.0), 1.93, step)]
     rng = np.random.default_rng(seed)
     xyz = np.vstack(parts)
     xyz = xyz + rng.normal(0, 0.002, xyz.shape)
@@ -76,12 +53,12 @@ def _scaffolded_column(seed: int, step: float = 0.03):
     6.2 m by a scaffold's deck, and the points round it: the shaft above the cut, the
     scaffold's four standards and decks, the vault's underside (held-out draw 46)."""
     rng = np.random.default_rng(seed)
-    shaft = _tube((0.0, 0.0), 0.24, 0.0, 8.7, step)
+    shaft = tube((0.0, 0.0), 0.24, 0.0, 8.7, step)
     shaft = shaft + rng.normal(0, 0.002, shaft.shape)
     own = shaft[shaft[:, 2] <= 6.2]
     parts = [shaft, _plate(-1.5, 1.5, -1.5, 1.5, 8.7, step)]
     for cx, cy in ((-0.8, -0.8), (0.8, -0.8), (0.8, 0.8), (-0.8, 0.8)):
-        parts.append(_tube((cx, cy), 0.024, 0.0, 6.2, step))
+        parts.append(tube((cx, cy), 0.024, 0.0, 6.2, step))
     for zl in (2.0, 4.0, 6.0):
         parts.append(_plate(-0.8, -0.2, -0.8, 0.8, zl + 0.07, step))
     return own, np.vstack(parts)
@@ -91,9 +68,9 @@ def _pulpit(seed: int, step: float = 0.03):
     """A pulpit post 0.12 m in radius to 1.93 m, its tub's sides round its top, under a
     ceiling at 3.44 m (draw 16)."""
     rng = np.random.default_rng(seed)
-    own = _tube((0.0, 0.0), 0.12, 0.0, 1.93, step)
+    own = tube((0.0, 0.0), 0.12, 0.0, 1.93, step)
     own = own + rng.normal(0, 0.002, own.shape)
-    cloud = np.vstack([own, _tub_sides((0.0, 0.0), 1.93, step), _plate(-2, 2, -2, 2, 3.44, step)])
+    cloud = np.vstack([own, tub_sides((0.0, 0.0), 1.93, step), _plate(-2, 2, -2, 2, 3.44, step)])
     return own, cloud + rng.normal(0, 0.002, cloud.shape)
 
 

@@ -21,6 +21,7 @@ from pyheracles.supports.cookies import (
     walled_in_bands,
 )
 from pyheracles.supports.core import SupportParams, scales
+from supports_draws import height_bands
 from test_supports_carried import assert_no_support_is_a_wall
 
 STEP = 0.03  # point spacing of the synthetic faces, metres
@@ -62,12 +63,7 @@ def _count(
     p = np.vstack(parts)
     p = p[rng.random(len(p)) > 0.3]  # a third of the points not seen, anywhere
     p = p + rng.normal(0.0, 0.004, p.shape)
-    order = np.argsort(p[:, 2], kind="stable")
-    z_sorted = p[order, 2]
-
-    def band(z_lo: float, z_hi: float) -> np.ndarray:
-        a, b = np.searchsorted(z_sorted, [z_lo, z_hi])
-        return order[a:b]
+    band = height_bands(p)
 
     sh = {"class": "pier", "centre": np.zeros(2), "angle": 0.0, "half": half.copy()}
     sc = scales(STEP, SupportParams())
