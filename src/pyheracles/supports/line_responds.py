@@ -28,7 +28,7 @@ from pyheracles.supports.responds import (
     face_both_sides,
     respond_shape,
 )
-from pyheracles.supports.rings import pair_lines, refit_line
+from pyheracles.supports.rings import pair_line_inliers, refit_line
 
 
 @dataclass(frozen=True)
@@ -79,11 +79,7 @@ def face_lines(
         if len(rest) < 50:
             break
         p = xy[rest]
-        nrm, off = pair_lines(p, lp.trials, rng)
-        sub = p if len(p) <= 4000 else p[rng.choice(len(p), 4000, replace=False)]
-        cost = np.minimum((sub @ nrm.T - off) ** 2, tol**2).sum(axis=0)
-        b = int(np.argmin(cost))
-        inl = np.abs(p @ nrm[b] - off[b]) <= tol
+        inl = pair_line_inliers(p, tol, lp.trials, 4000, rng)
         if inl.sum() < 50:
             break
         n, d, _ = refit_line(p[inl])

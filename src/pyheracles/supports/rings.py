@@ -474,6 +474,19 @@ def pair_lines(p: Array, trials: int, rng: np.random.Generator) -> tuple[Array, 
     return nrm, np.einsum("ij,ij->i", nrm, p[idx[good, 0]])
 
 
+def pair_line_inliers(
+    p: Array, tol: float, trials: int, max_sample: int, rng: np.random.Generator
+) -> NDArray[np.bool_]:
+    """The points of ``p`` within ``tol`` of the candidate of :func:`pair_lines` with
+    the lowest truncated cost (MSAC; at most ``max_sample`` of the points scored), as a
+    mask: the first step of a sequential line search, before the line's refit."""
+    nrm, off = pair_lines(p, trials, rng)
+    sub = p if len(p) <= max_sample else p[rng.choice(len(p), max_sample, replace=False)]
+    cost = np.minimum((sub @ nrm.T - off) ** 2, tol**2).sum(axis=0)
+    b = int(np.argmin(cost))
+    return np.abs(p @ nrm[b] - off[b]) <= tol
+
+
 def refit_line(q: Array) -> tuple[Array, float, Array]:
     """Least-squares line through the points ``q`` (a search's inliers): unit normal
     ``n``, offset ``d`` (``n . x = d`` on it) and the points' centroid."""
@@ -497,11 +510,7 @@ def wall_face_lines(
         if len(rest) < 20:
             break
         p = xy[rest]
-        nrm, off = pair_lines(p, msac.max_trials, rng)
-        sub = p if len(p) <= 3000 else p[rng.choice(len(p), 3000, replace=False)]
-        cost = np.minimum((sub @ nrm.T - off) ** 2, tol**2).sum(axis=0)
-        b = int(np.argmin(cost))
-        inl = np.abs(p @ nrm[b] - off[b]) <= tol
+        inl = pair_line_inliers(p, tol, msac.max_trials, 3000, rng)
         if inl.sum() < max(20, 0.02 * len(xy)):
             break
         n, d, _ = refit_line(p[inl])  # the face line on its inliers
