@@ -40,7 +40,7 @@ from pyheracles.supports.engaged_rows import engage_rows
 from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
 from pyheracles.supports.faceon import face_on_piers
-from pyheracles.supports.height import choose_height, dense_extent
+from pyheracles.supports.height import choose_height, dense_extent, unseen_notes
 from pyheracles.supports.line_responds import line_responds
 from pyheracles.supports.low_section import low_heights, supports_floor
 from pyheracles.supports.measure import measure_supports
@@ -176,10 +176,10 @@ def detect_supports_checked(
 
     # 1. section height: given, or where support islands are most numerous and stable
     scores: list[tuple[float, int]] = []
+    lo, hi = z0 + 0.25 * (z1 - z0), z0 + 0.85 * (z1 - z0)
     if params.section_height_m is not None:
         h_sec = z0 + params.section_height_m
     else:
-        lo, hi = z0 + 0.25 * (z1 - z0), z0 + 0.85 * (z1 - z0)
         h_sec, scores = choose_height(p, order, z_sorted, params, sc, lo, hi)
     # 2. islands of the section, and the support shapes they give
     s, e = np.searchsorted(z_sorted, [h_sec - sc.thickness / 2, h_sec + sc.thickness / 2])
@@ -324,7 +324,10 @@ def detect_supports_checked(
             "reveals and jambs of openings in thick walls): not supports"
         )
         shapes = [sh for k, sh in enumerate(shapes) if k not in reveals]
+    # no persistent island at any height of the search: said where nothing is found
+    unseen = unseen_notes(scores, (lo - z0, hi - z0), h_sec - z0, lows, z0, params)
     if not shapes:
+        notes += unseen
         notes.append(
             f"no support found in the section {at} "
             f"({sum(i.kind == 'wall' for i in islands)} wall islands, "
@@ -476,6 +479,7 @@ def detect_supports_checked(
     if len(objects):
         objects.insert(0, "instance", np.arange(1, len(objects) + 1, dtype=np.int32))
     if not rows:
+        notes += unseen
         notes.append("support candidates were found in the section but none spans the body height")
     return SupportResult(instance, objects, h_sec, spacing, islands, tuple(notes), scores)
 

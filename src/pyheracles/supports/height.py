@@ -216,3 +216,54 @@ def choose_height(
     mid = (starts[r] + ends[r] - 1) / 2
     height = float(np.interp(mid, np.arange(len(cands)), cands))
     return height, list(zip(cands.tolist(), score.tolist(), strict=True))
+
+
+def unseen_notes(
+    scores: list[tuple[float, int]],
+    range_m: tuple[float, float],
+    at_m: float,
+    lows: list[tuple[float, Array]],
+    z0: float,
+    params: SupportParams,
+) -> list[str]:
+    """The note of a support search that finds nothing, when the section height search
+    found no persistent support island at any height (none otherwise).
+
+    Parameters
+    ----------
+    scores
+        The height search's ``(height, persistent islands)`` per candidate height (empty:
+        the section height was given).
+    range_m
+        The searched range, metres above the floor.
+    at_m
+        The section taken (the middle of the range), metres above the floor.
+    lows
+        The lower sections searched too: ``(height, plan points)``, heights in metres.
+    z0
+        The floor, metres.
+    params
+        Detection parameters (``persistence_m``: how far above and below an island had
+        to be found again; ``min_free_height_m``: the height a support carrying nothing
+        must be seen over).
+
+    Returns
+    -------
+    list of str
+        No note, or one saying what happened and what it means: supports seen only
+        below the sections (under low eaves, through doors) or not at all are not found
+        (supports draw 2: a colonnade under eaves hanging 1.2 m below its tops, seen
+        from outside only up to 1 m, under a roof 9 m high; the section fell into the
+        roof, where the wrong note said candidates did not span the body height).
+    """
+    if max((k for _, k in scores), default=1):
+        return []
+    low = ", ".join(f"{h - z0:.2f}" for h, _ in lows)
+    return [
+        f"no height between {range_m[0]:.2f} and {range_m[1]:.2f} m above the floor holds "
+        f"a support island found again {params.persistence_m:g} m above and below it: the "
+        f"section is the middle of that range ({at_m:.2f} m)"
+        + (f", the lower one{'s' if len(lows) > 1 else ''} at {low} m" if lows else "")
+        + "; supports seen only lower down (under low eaves, through doors) and over less "
+        f"than {params.min_free_height_m:g} m, or not at all, are not found"
+    ]
