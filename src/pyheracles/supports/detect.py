@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from pyheracles.errors import InputError
+from pyheracles.forks import ForkedCall
 from pyheracles.geometry.sections import sort_order
 from pyheracles.resources import check_spread
 from pyheracles.supports.anta_islands import anta_islands
@@ -59,6 +61,13 @@ from pyheracles.supports.rings import (
 )
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
 from pyheracles.supports.shaft_above import ends_short
+from pyheracles.supports.thick_slab import (
+    THICK_SECTION_M,
+    shape_reach,
+    slab_indices,
+    thick_islands,
+    thick_pier,
+)
 
 # ------------------------------------------------------------------------------ main
 #: The lower section (supports ending below the automatic one) lies this many times
@@ -67,9 +76,6 @@ LOW_SECTION_FACTOR = 0.8
 #: A column of the thick low section is at most this many times the radius of the
 #: thickest column found in the thin sections and the main thick one.
 LOW_RADIUS_SHARE = 1.25
-#: Thickness of the section that finds the supports too sparse for the thin one, metres
-#: (a column leaning 6 degrees moves 3 cm over it; its outline stays one ring).
-THICK_SECTION_M = 0.3
 
 
 def detect_supports(
@@ -184,6 +190,15 @@ def detect_supports_checked(
     # 2. islands of the section, and the support shapes they give
     s, e = np.searchsorted(z_sorted, [h_sec - sc.thickness / 2, h_sec + sc.thickness / 2])
     sec_idx = order[s:e]
+    thick = params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness
+
+    def thick_call(hs: list[float]) -> ForkedCall | None:
+        """The islands of the thick slabs about ``hs`` (2c, 2e; no random draws), from
+        a forked child while this process searches the thin sections."""
+        isl = partial(thick_islands, p, order, z_sorted, hs, params, sc.distance)
+        return ForkedCall(isl) if thick and hs else None
+
+    thick_main = thick_call([h_sec])
     islands = section_islands(p[sec_idx, :2], params, sc.distance)
     at = f"{h_sec - z0:.2f} m above the floor"
     notes: list[str] = [] if len(sec_idx) else [f"the section {at} is empty"]
@@ -202,11 +217,13 @@ def detect_supports_checked(
     main = [sh for sh in shapes if sh["class"] in ("column", "pier", "engaged_column")]
     z_sup = supports_floor(p, order, z_sorted, main, [shape_reach(sh) for sh in main], z0, h_sec)
     lows: list[tuple[float, Array]] = []  # per low section: height, plan points
+    thick_lows = None
     if params.section_height_m is None:
         above = LOW_SECTION_FACTOR * params.min_free_height_m
-        for h_low in low_heights(z0, z_sup, h_sec, above, params.persistence_m):
-            s2, e2 = np.searchsorted(z_sorted, [h_low - sc.thickness / 2, h_low + sc.thickness / 2])
-            low_xy = p[order[s2:e2], :2]
+        low_hs = list(low_heights(z0, z_sup, h_sec, above, params.persistence_m))
+        thick_lows = thick_call(low_hs)
+        for h_low in low_hs:
+            low_xy = p[slab_indices(order, z_sorted, h_low, sc.thickness), :2]
             lows.append((h_low, low_xy))
             low_islands = section_islands(low_xy, params, sc.distance)
             low_shapes, _ = support_shapes(low_xy, low_islands, params, sc, rng, responds=False)
@@ -223,17 +240,20 @@ def detect_supports_checked(
     # slab's walls only (it holds more of the clutter and of the window frames), piers
     # at least min_support_size_m across both ways (draw 8: a 0.3 m pier with 7 points
     # in the thin section; draw 14: two antae with 19 and 24)
-    def thick_at(h: float, thin_xy: Array) -> tuple[list[dict], NDArray[np.intp], list, Callable]:
+    def thick_at(
+        h: float, thin_xy: Array, isl: list[Island]
+    ) -> tuple[list[dict], NDArray[np.intp], list, Callable]:
         """New shapes of the thick slab about ``h`` (``thin_xy``: the thin section's
-        plan points there), its indices and islands, and its walls' test."""
-        s3, e3 = np.searchsorted(z_sorted, [h - THICK_SECTION_M / 2, h + THICK_SECTION_M / 2])
-        thick_idx = order[s3:e3]
-        thick_islands = section_islands(p[thick_idx, :2], params, sc.distance)
-        thick_shapes, _ = support_shapes(
-            p[thick_idx, :2], thick_islands, params, sc, rng, responds=False
-        )
-        walls = [p[thick_idx[i.index], :2] for i in thick_islands if i.kind == "wall"]
+        plan points there; ``isl``: its islands, of ``thick_islands``), its indices and
+        islands, and its walls' test."""
+        thick_idx = slab_indices(order, z_sorted, h, THICK_SECTION_M)
+        thick_xy = p[thick_idx, :2]
+        walls = [thick_xy[i.index] for i in isl if i.kind == "wall"]
+        # one tree of the slab's wall points, for its half-columns and for its walls' test
         wall_tree = cKDTree(np.vstack(walls)) if walls else None
+        thick_shapes, _ = support_shapes(
+            thick_xy, isl, params, sc, rng, responds=False, wall_tree=wall_tree
+        )
 
         def free_of_walls(sh: dict) -> bool:
             """A free shape: no wall of the thick slab at it (a corner, a window frame)."""
@@ -250,10 +270,12 @@ def detect_supports_checked(
         ]
         for sh in added:
             sh["sparse"] = True
-        return added, thick_idx, thick_islands, free_of_walls
+        return added, thick_idx, isl, free_of_walls
 
-    if params.section_thickness_m is None and THICK_SECTION_M > 1.5 * sc.thickness:
-        added, thick_idx, thick_islands, free_of_walls = thick_at(h_sec, p[sec_idx, :2])
+    if thick_main is not None:
+        added, thick_idx, thick_isl, free_of_walls = thick_at(
+            h_sec, p[sec_idx, :2], thick_main.result()[0]
+        )
         shapes += added
         # 2c'. responds on the building's wall face lines: a wall seen at a grazing
         # angle is broken into pieces shorter than a support in the section, no wall
@@ -267,7 +289,7 @@ def detect_supports_checked(
                     shapes.append(sh)
         # 2d. short tight arcs of small rings that the same circle continues above and
         # below (draw 36: twin columns of 0.14 m seen over 40-80 degrees at every height)
-        for sh in arc_columns(p, order, z_sorted, h_sec, thick_idx, thick_islands, params):
+        for sh in arc_columns(p, order, z_sorted, h_sec, thick_idx, thick_isl, params):
             if clear_of(sh, shapes) and free_of_walls(sh):
                 shapes.append(sh)
         # 2e. the thick slab about the low section: broken columns far from every
@@ -277,10 +299,11 @@ def detect_supports_checked(
         # ring of 0.7 m in a wall beside columns of 0.23 m)
         radii = [float(sh["radius"]) for sh in shapes if sh["class"] == "column"]
         r_max = LOW_RADIUS_SHARE * max(radii, default=0.0)
-        for h_low, low_xy in lows:
+        low_islands = thick_lows.result() if thick_lows is not None else []
+        for (h_low, low_xy), low_isl in zip(lows, low_islands, strict=True):
             low_added = [
                 sh
-                for sh in thick_at(h_low, low_xy)[0]
+                for sh in thick_at(h_low, low_xy, low_isl)[0]
                 if sh["class"] == "column" and float(sh["radius"]) <= r_max
             ]
             for sh in low_added:
@@ -618,27 +641,6 @@ def face_on_shapes(
     return out
 
 
-def thick_pier(sh: dict, params: SupportParams, thin_xy: Array) -> bool:
-    """Whether a pier shape of the thick section may be a support: at least
-    ``min_support_size_m`` across both ways (the thick slab holds window frames,
-    mullions and slivers of wall faces seen through openings), and too sparse for the
-    thin section ``thin_xy`` (fewer than ``2 x min_points`` of its points within the
-    shape's reach): where the thin slab holds the place densely, its islands said what
-    stands there (draw 19: a part of a 2 x 1 m pier split off as a second one)."""
-    if sh["class"] != "pier" or 2.0 * float(np.min(sh["half"])) < params.min_support_size_m:
-        return False
-    near = np.max(np.abs(thin_xy - sh["centre"]), axis=1) <= shape_reach(sh)
-    return int(np.count_nonzero(near)) < 2 * params.min_points
-
-
-def shape_reach(sh: dict) -> float:
-    """How far a section shape reaches from its centre: a column's radius, a pier's
-    half diagonal (metres)."""
-    if sh["class"] == "pier":
-        return float(np.hypot(*sh["half"]))
-    return float(sh["radius"])
-
-
 def clear_of(sh: dict, shapes: list[dict]) -> bool:
     """Whether a shape's footprint overlaps no other's: the circle of its half size, or
     of a column's radius when larger (a column seen over a short arc of its ring reaches
@@ -721,6 +723,7 @@ def support_shapes(
     rng: np.random.Generator,
     *,
     responds: bool = True,
+    wall_tree: cKDTree | None = None,
 ) -> tuple[list[dict], int]:
     """Section shapes of the supports: column / pier islands, half-columns on walls and,
     with ``responds``, piers against walls (:func:`respond_islands`,
@@ -728,11 +731,15 @@ def support_shapes(
     the low and the thick ones hold more of the clutter and of the walls' openings).
 
     Also returns the number of pier islands left out as pieces of walls
-    (:func:`wall_pieces`).
+    (:func:`wall_pieces`).  ``wall_tree``: the tree of the wall islands' points when the
+    caller has built it already (built here otherwise).
     """
     shapes: list[dict] = []
-    wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
-    wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy and params.engaged else None
+    if not params.engaged:
+        wall_tree = None
+    elif wall_tree is None:
+        wall_xy = [xy[i.index] for i in islands if i.kind == "wall"]
+        wall_tree = cKDTree(np.vstack(wall_xy)) if wall_xy else None
     # the pieces of one pier outline broken at its corners are joined first: with their
     # rectangles along their faces, one piece beside the other looked like a wall
     # going on (draw 27); then the pieces of walls
