@@ -84,6 +84,7 @@ def test_low_carriers_by_level() -> None:
         {"class": "pier", "z_min": 0.0, "z_max": 1.5},  # cut by a gallery / a post
         {"class": "engaged_column", "z_min": 0.0, "z_max": 1.5},
     ]
+    rows = [{**r, "x": 3.0 * (k % 5), "y": 3.0 * (k // 5)} for k, r in enumerate(rows)]
     inf = float("inf")
     carried_z = [2.62] * 6 + [1.52, inf, 1.52, 1.52]
     carries = [True] * 7 + [False, True, True]
@@ -155,3 +156,43 @@ def test_pulpit_post_in_a_ruin_is_no_broken_column() -> None:
     assert list(found.objects["class"]) == ["column"] * 5, found.objects
     post = np.hypot(xyz[:, 0] - 4.5, xyz[:, 1] - 4.0) < 0.3
     assert not found.instance[post].any()
+
+
+def test_low_carriers_under_a_vault() -> None:
+    """Draw 32 (a nave on a 0.18 m platform, its supports 2.5 m tall under a vault
+    springing at 2.68 m and rising 1.8 m): the surface found over each support lay up
+    the vault (2.68-4.03 m, their median 3.32 m) and the engaged column carrying the
+    springing at 2.68 m reached 0.799 of the way up to the median: dropped.  Each
+    candidate is judged against what the supports next to it carry (2.88 m for the
+    column): it stays; a pulpit's post beside the arcade, carrying its tub at 1.6 m or
+    its tub unseen (ending at 1.58 m), goes."""
+    carriers = [
+        (0.48, 8.89, 3.53),
+        (11.96, 2.97, 2.98),
+        (14.21, 2.96, 2.88),
+        (2.95, 7.03, 2.93),
+        (16.48, 2.97, 2.78),
+        (5.20, 7.03, 2.83),
+        (18.64, 3.03, 2.83),
+        (2.94, 2.97, 3.44),
+        (5.15, 2.96, 3.59),
+        (-0.16, 2.50, 3.19),
+        (7.45, 7.03, 2.88),
+        (20.75, 3.02, 3.54),
+        (9.71, 2.97, 3.57),
+        (9.57, 7.04, 3.69),
+        (5.21, 0.04, 4.03),
+        (9.48, 9.81, 3.96),
+        (11.80, 7.04, 3.81),
+    ]  # fmt: skip  (x, y, carried_z) of the supports of the draw that carry
+    rows = [{"class": "pier", "x": x, "y": y, "z_min": 0.18, "z_max": 2.68} for x, y, _ in carriers]
+    rows += [
+        {"class": "column", "x": 5.22, "y": 9.95, "z_min": 0.18, "z_max": 2.68},  # engaged
+        {"class": "column", "x": 6.3, "y": 7.6, "z_min": 0.18, "z_max": 1.58},  # a post
+    ]
+    carried_z = [t for *_, t in carriers] + [2.68, float("inf")]  # the tub unseen
+    carries = [True] * (len(carriers) + 1) + [False]
+    post = len(carriers) + 1
+    assert low_carriers(rows, carries, carried_z) == {post}
+    carried_z[-1], carries[-1] = 1.6, True  # its tub seen over it
+    assert low_carriers(rows, carries, carried_z) == {post}

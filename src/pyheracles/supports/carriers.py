@@ -46,8 +46,9 @@ def thin_free_columns(rows: list[dict], carries: list[bool]) -> set[int]:
 
 #: A column that carries something carries the building where its supports carry it:
 #: its top (the underside of what it carries) lies at least this share of the way from
-#: its own floor up to the level the building's supports carry (the median top of those
-#: that carry something).  Supports on a dais or a step reach the same level from a
+#: its own floor up to the level the supports carry over it (the median top of those
+#: that carry something, or what its nearest ones carry where lower:
+#: :func:`neighbour_levels`).  Supports on a dais or a step reach the same level from a
 #: higher floor; the post of a pulpit carries its tub at 0.25-0.75 of the way (supports
 #: family: posts 1.2-2.6 m under supports 2.5-15 m tall), a sign post its board.
 LOW_CARRY_SHARE = 0.8
@@ -60,6 +61,46 @@ MIN_CARRYING = 3
 #: 2.76 m under a ceiling at 3.15 m, its capital unseen, 0.77 of the way); the posts of
 #: pulpits and the bars of fences end 0.50-0.59 of the way (draws 7, 8, 12, 16, 25).
 SHORT_TOP_SHARE = 0.7
+
+
+def neighbour_levels(xy: np.ndarray, levels: np.ndarray, carrying: np.ndarray) -> np.ndarray:
+    """The level of the surface carried over each support: the median of what its
+    :data:`MIN_CARRYING` nearest other supports that carry carry (metres).
+
+    Parameters
+    ----------
+    xy : ndarray
+        ``(N, 2)`` plan positions of the supports (metres).
+    levels : ndarray
+        ``(N,)`` the underside of what each carries (``carried_z``, metres).
+    carrying : ndarray
+        ``(N,)`` whether each carries the building at a finite level (not a pulpit's
+        tub: ``LOW_CARRY_SHARE`` of the way up to the median level); at least
+        :data:`MIN_CARRYING` + 1 do.
+
+    Returns
+    -------
+    ndarray
+        ``(N,)`` per support the median level carried by its plan neighbours.
+
+    Notes
+    -----
+    A flat ceiling or an attic is carried at one level; a vault or a ceiling over
+    aisles and nave at several: each support carries it where it springs over its
+    top, and the surface found over a support's cookie lies up the vault's rise the
+    farther the cookie reaches in under it.  Draw 32 of the supports family (a nave
+    under a vault springing at 2.68 m and rising 1.8 m): its supports carried it at
+    2.68-4.03 m, their median 3.32 m; the engaged column carrying the springing at
+    2.68 m reached 0.799 of the way up to the median, 0.93 of the way up to what its
+    three nearest supports carry (2.88 m).  A pulpit's post stands beside columns
+    carrying the ceiling: its neighbours carry the building's level, not the tubs of
+    other pulpits, which are no neighbours.
+    """
+    cand = np.flatnonzero(carrying)
+    d = np.hypot(xy[:, None, 0] - xy[None, cand, 0], xy[:, None, 1] - xy[None, cand, 1])
+    d[cand, np.arange(len(cand))] = np.inf  # not itself
+    near = np.argsort(d, axis=1, kind="stable")[:, :MIN_CARRYING]
+    return np.median(levels[cand][near], axis=1)
 
 
 def low_carriers(
@@ -75,26 +116,29 @@ def low_carriers(
     carry, the median top of those carrying nothing, and only those that carry are
     judged: a post carrying its rail among broken columns).
 
-    ``rows``: objects-table rows (``class``, ``z_min``, ``z_max``); ``carries``: whether
-    each carries something; ``carried_z``: the underside of what it carries (metres).
-    The carried level is the median ``carried_z`` of the supports that carry (at least
-    :data:`MIN_CARRYING` of them); a column whose top (``carried_z`` if it carries, else
-    its highest point ``z_max``) is lower than ``LOW_CARRY_SHARE`` of the way from its
-    lowest point ``z_min`` up to that level is an object standing in the room (draws 8
-    and 25 of the supports family: pulpit posts 1.2-1.8 m tall "carrying" their tubs
-    beside supports carrying the ceiling at 2.6 m).  Where most supports carry (the
-    building stands), a column so low carrying nothing is one too (a post whose tub's
-    underside, level with the scanner, went unseen); in a ruin, where most carry
-    nothing, it is a broken column and stays.  A column whose foot or top the scan
-    missed is judged by what it carries, not by its points (draw 36: a column seen
-    from 1.35 to 2.58 m under a ceiling at 2.8 m).  A pier found in the thick section
-    only is judged alike (draw 1: a scaffold's standard 8 m tall beside a column, under
-    a roof carried at 14.7 m); one the thin section found only in a ruin, by what it
-    carries (draw 3: a fence post 1.6 m tall carried its rail among broken columns
-    3.9 m tall), not by its points when it carries nothing: its top may be shadowed
-    (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a standing
-    building a gallery or a deck against it may cut it low (held-out draw 44: a pier 15
-    m tall cut at 4.1 m).
+    ``rows``: objects-table rows (``class``, ``z_min``, ``z_max``; ``x``, ``y`` for the
+    levels of the neighbours, else the median alone); ``carries``: whether each carries
+    something; ``carried_z``: the underside of what it carries (metres).  The carried
+    level is the median ``carried_z`` of the supports that carry (at least
+    :data:`MIN_CARRYING` of them), or for each candidate what its :data:`MIN_CARRYING`
+    nearest supports that carry carry where that is lower (:func:`neighbour_levels`: a
+    vault is carried low at its springing, high up its rise; draw 32); a column whose
+    top (``carried_z`` if it carries, else its highest point ``z_max``) is lower than
+    ``LOW_CARRY_SHARE`` of the way from its lowest point ``z_min`` up to that level is
+    an object standing in the room (draws 8 and 25 of the supports family: pulpit posts
+    1.2-1.8 m tall "carrying" their tubs beside supports carrying the ceiling at 2.6 m).
+    Where most supports carry (the building stands), a column so low carrying nothing is
+    one too (a post whose tub's underside, level with the scanner, went unseen); in a
+    ruin, where most carry nothing, it is a broken column and stays.  A column whose foot
+    or top the scan missed is judged by what it carries, not by its points (draw 36: a
+    column seen from 1.35 to 2.58 m under a ceiling at 2.8 m).  A pier found in the thick
+    section only is judged alike (draw 1: a scaffold's standard 8 m tall beside a
+    column, under a roof carried at 14.7 m); one the thin section found only in a ruin,
+    by what it carries (draw 3: a fence post 1.6 m tall carried its rail among broken
+    columns 3.9 m tall), not by its points when it carries nothing: its top may be
+    shadowed (draw 8: two piers seen up to 1.6 m under a ceiling at 2.56 m); in a
+    standing building a gallery or a deck against it may cut it low (held-out draw 44: a
+    pier 15 m tall cut at 4.1 m).
 
     ``short``: whether each ends short of what it carries, the plan of its top empty
     from there up to it (:func:`~pyheracles.supports.shaft_above.ends_short`).  In a
@@ -114,6 +158,14 @@ def low_carriers(
         if len(free_tops) < MIN_CARRYING or 2 * len(levels) >= len(rows):
             return set()
         level, standing = float(np.median(free_tops)), False
+    local = np.full(len(rows), np.inf)
+    tz = np.asarray(carried_z, dtype=np.float64)
+    floor = np.array([float(r["z_min"]) for r in rows], dtype=np.float64)
+    carrying = np.asarray(carries, dtype=bool) & np.isfinite(tz)
+    carrying &= tz - floor >= LOW_CARRY_SHARE * (level - floor)  # not a pulpit's tub
+    xy = np.array([[r.get("x", np.nan), r.get("y", np.nan)] for r in rows], dtype=np.float64)
+    if carrying.sum() > MIN_CARRYING and np.isfinite(xy).all():  # in plan: the surface
+        local = neighbour_levels(xy, tz, carrying)  # over each, what its neighbours carry
     out = set()
     for k, (r, c, t) in enumerate(zip(rows, carries, carried_z, strict=True)):
         judged = (
@@ -126,7 +178,8 @@ def low_carriers(
         ends = standing and short is not None and short[k]  # under what it "carries"
         top = t if c and np.isfinite(t) and not ends else float(r["z_max"])
         need = SHORT_TOP_SHARE if ends else LOW_CARRY_SHARE
-        if top - float(r["z_min"]) < need * (level - float(r["z_min"])):
+        here = min(level, float(local[k]))  # never above the building's median
+        if top - float(r["z_min"]) < need * (here - float(r["z_min"])):
             out.add(k)
     return out
 
