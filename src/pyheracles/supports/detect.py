@@ -38,6 +38,7 @@ from pyheracles.supports.core import (
     one_blas_thread,
     scales,
 )
+from pyheracles.supports.engaged_faces import engage_on_wall_faces
 from pyheracles.supports.engaged_rows import engage_rows
 from pyheracles.supports.face_boxes import join_face_parts, section_parts
 from pyheracles.supports.face_rise import FACE_REACH_M, neighbour_discs
@@ -53,10 +54,8 @@ from pyheracles.supports.responds import respond_island, responds_on_wall
 from pyheracles.supports.ring_heights import arc_columns
 from pyheracles.supports.rings import (
     RING_RADIUS_M,
-    WALL_BAND_M,
     detached_half_column,
     engaged_on_wall,
-    wall_face_beside,
     wall_face_lines,
 )
 from pyheracles.supports.sections import regroup_pier_pieces, section_islands
@@ -284,7 +283,8 @@ def detect_supports_checked(
             thick_xy = p[thick_idx, :2]
             for sh in line_responds(thick_xy, thick_xy.mean(axis=0), params, sc):
                 if clear_of(sh, shapes):
-                    frac = params.pier_buffer_fraction
+                    pier = sh["class"] == "pier"  # or an engaged column's arc front
+                    frac = params.pier_buffer_fraction if pier else params.buffer_fraction
                     sh["buffer"] = max(params.buffer_min_m, frac * float(np.max(sh["half"])))
                     shapes.append(sh)
         # 2d. short tight arcs of small rings that the same circle continues above and
@@ -316,7 +316,7 @@ def detect_supports_checked(
             p, sec_idx, islands, shapes, order, z_sorted, h_sec, (z0, z1), params, sc
         )
     if params.engaged:
-        engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng)
+        engage_on_wall_faces(p, order, z_sorted, shapes, h_sec, sc, rng, params.seed)
         # rows of columns whose rings stop on one line: a wall never scanned beside them
         # (a ruin's walls end below the section; draw 24)
         n_rows = engage_rows(p, order, z_sorted, shapes, h_sec, sc, z_sup)
@@ -534,59 +534,6 @@ def join_arcs_to_columns(p: Array, rows: list[dict], members: list[tuple], tol: 
     for k in sorted(gone, reverse=True):
         del rows[k], members[k]
     return len(gone)
-
-
-def engage_on_wall_faces(
-    p: Array,
-    order: NDArray[np.intp],
-    z_sorted: Array,
-    shapes: list[dict],
-    h_sec: float,
-    sc: Scales,
-    rng: np.random.Generator,
-) -> None:
-    """Turn the free column shapes that stand against a wall's face into engaged ones,
-    in place.
-
-    The section's wall islands next to an engaged column are often missing: the shaft
-    shadows the wall beside it, and high up a wall's face is sparse in a thin slab
-    (:func:`~pyheracles.supports.rings.detached_half_column` needs wall points within a
-    few centimetres).  Here the face is sought among the points of a slab
-    ``WALL_BAND_M`` above and below the shape's section, within ``radius + max(1 m,
-    radius)`` of its centre (:func:`~pyheracles.supports.rings.wall_face_beside`).
-    """
-    # per section height the slab's plan points sorted by x: each column takes its
-    # window by two binary searches, not a mask over the whole slab
-    slabs: dict[float, tuple[Array, Array, Array, NDArray[np.intp]]] = {}
-    for sh in shapes:
-        if sh["class"] != "column":
-            continue
-        h = float(sh.get("h_sec", h_sec))
-        if h not in slabs:
-            a, b = np.searchsorted(z_sorted, [h - WALL_BAND_M, h + WALL_BAND_M])
-            idx = order[a:b]
-            perm = np.argsort(p[idx, 0], kind="stable")
-            idx = idx[perm]
-            slabs[h] = (p[idx, :3], np.abs(p[idx, 2] - h) <= sc.thickness / 2, p[idx, 0], perm)
-        xyz, thin, xs, perm = slabs[h]
-        xy = xyz[:, :2]
-        c, r = np.asarray(sh["centre"], dtype=np.float64), float(sh["radius"])
-        reach = r + max(1.0, r)
-        a, b = np.searchsorted(xs, [c[0] - reach, c[0] + reach])
-        box = a + np.flatnonzero(np.abs(xy[a:b, 1] - c[1]) <= reach)
-        box = box[np.argsort(perm[box])]  # in the slab's own order (the face search samples)
-        near = xy[box]
-        dist = np.hypot(*(near - c).T)
-        ring = near[thin[box] & (np.abs(dist - r) <= max(2.0 * sc.tol, 0.1 * r))]
-        inside = dist <= reach
-        up = xyz[box[inside], 2] - (h - WALL_BAND_M)
-        face = wall_face_beside(near[inside], ring, c, r, sc.tol, rng, up)
-        if face is None:
-            continue
-        n, d, face_rms = face
-        sh["class"] = "engaged_column"
-        sh.update(normal=n, d=d, face_gap=max(0.01, 3.0 * face_rms), angle=0.0)
-        sh["half"] = np.array([r, r])
 
 
 def face_on_shapes(

@@ -23,10 +23,10 @@ from pyheracles.supports.core import Array, Scales, SupportParams
 from pyheracles.supports.responds import (
     RESPONDS,
     RespondParams,
+    against_face,
     back_open,
     bump_on_face,
     face_both_sides,
-    respond_shape,
 )
 from pyheracles.supports.rings import pair_line_inliers, refit_line
 
@@ -149,5 +149,5 @@ def line_responds(
             if face_both_sides(face, n, bump[1], bump[2], bin_m, rp) and back_open(
                 face, n, d, bump[1], bump[2], sc.tol, bin_m
             ):
-                found.append(respond_shape(*bump, n, d, rms))
+                found.append(against_face(p, bump, n, d, rms, sc.tol))
     return found

@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from pyheracles.segment.euclidean import euclidean_clusters
 from pyheracles.supports.core import Array, SupportParams
+from pyheracles.supports.engaged_fronts import arc_front, engaged_shape
 from pyheracles.supports.piers import WALL_LINE_COVER_M, WALL_LINE_GAP_M, rect_coords
 from pyheracles.supports.rings import refit_line
 
@@ -127,7 +128,7 @@ def responds_on_wall(
             if face_both_sides(face, n, bump[1], bump[2], bin_m, rp) and back_open(
                 xy, n, d, bump[1], bump[2], tol, bin_m
             ):
-                found.append(respond_shape(*bump, n, d, face_rms))
+                found.append(against_face(p, bump, n, d, face_rms, tol))
             break
     return found
 
@@ -169,6 +170,28 @@ def respond_shape(
         "face_gap": max(0.01, 3.0 * face_rms),
         "respond": True,
     }
+
+
+def against_face(
+    p: Array,
+    bump: tuple[float, float, float, float],
+    n: Array,
+    d: float,
+    face_rms: float,
+    tol: float,
+) -> dict:
+    """The section shape of a support standing out of the wall face ``n . x = d``
+    (``p``: its points, ``bump``: its outline, :func:`bump_on_face`), told by its front:
+    an engaged column when its front is an arc of a column's ring
+    (:func:`~pyheracles.supports.engaged_fronts.arc_front`), else a respond pier
+    (:func:`respond_shape`).  The rectangle of a half column's arc stands out of the
+    face as a respond's does (supports draw 0's noise draws: half columns of 0.2 m
+    found as piers)."""
+    side = bump[0]
+    arc = arc_front(p, n, d, side, tol)
+    if arc is not None:
+        return engaged_shape(arc[0], arc[1], side * n, side * d, face_rms)
+    return respond_shape(*bump, n, d, face_rms)
 
 
 def back_open(
@@ -237,5 +260,5 @@ def respond_island(
             if front_bins >= 0.5 * back_bins:
                 continue
             rms = float(np.sqrt(np.mean((others[on] @ n - d) ** 2)))
-            return respond_shape(*bump, n, d, rms)
+            return against_face(p, bump, n, d, rms, tol)
     return None
