@@ -20,6 +20,7 @@ __all__ = [
     "fit_one_face_cuboid",
     "going_back",
     "side_run",
+    "spans_between",
 ]
 
 
@@ -294,3 +295,28 @@ def fit_one_face_cuboid(
     )
     dist = np.abs(cub.signed_distance(pts))
     return replace(cub, rms=float(np.sqrt(np.mean(dist**2))))
+
+
+def spans_between(
+    cub: BeamCuboid, beams: list[BeamCuboid], reach_m: float, cos_parallel: float
+) -> bool:
+    """Whether both ends of ``cub`` abut beams crossing it (a member framed between two).
+
+    A one-face band must be twice as elongated as a straight facet to count as a
+    member (one face is weak evidence), but a short member framed between two
+    others (a queen post from the tie up to the straining beam, 0.97 m for a
+    0.25 m face in roof draw 22) is as long as the joints at its ends let it be:
+    its length says nothing about what it is.  Each end (the centre of the
+    cuboid's end face) lies within ``reach_m`` of a beam of ``beams`` whose axis
+    is not parallel to its own (``|cos| < cos_parallel``; a parallel beam there
+    is the same line going on, a piece of one member).
+    """
+    ends = cub.centre + np.outer([-0.5, 0.5], cub.axis * cub.length)
+    found = np.zeros(2, dtype=bool)
+    for b in beams:
+        if abs(float(b.axis @ cub.axis)) >= cos_parallel:
+            continue
+        found |= b.signed_distance(ends) <= reach_m
+        if found.all():
+            return True
+    return False

@@ -30,6 +30,7 @@ from pyheracles.beams.grouping import face_runs, group_facets
 from pyheracles.beams.hull_strips import HullStripParams, on_hull_strip
 from pyheracles.beams.joints import find_joints
 from pyheracles.beams.model import BeamCuboid, BeamParams, BeamResult, StraightFacet
+from pyheracles.beams.one_face import spans_between
 from pyheracles.beams.piece_joins import piece_faces
 from pyheracles.beams.sparse_faces import SparseFaceParams, with_sparse_regions
 from pyheracles.beams.surfaces import (
@@ -243,6 +244,7 @@ def add_one_face_beams(
     tol: float,
     free: NDArray[np.float64] | None = None,
     fill: NDArray[np.bool_] | None = None,
+    reach_m: float | None = None,
 ) -> tuple[list[BeamCuboid], NDArray[np.int32]]:
     """Beams seen on one face: runs of the straight facets no beam took.
 
@@ -259,7 +261,9 @@ def add_one_face_beams(
     extended by twice ``max_gap_m`` at each end (a piece cut off by a shadow
     or a crossing member), joins it and the cuboid is fitted again (on
     several faces, :func:`fit_beam_cuboid`, when the pieces lie on faces that
-    are not parallel).
+    are not parallel).  With ``reach_m``, a run too short for a one-face beam
+    but as elongated as a straight facet is one when both its ends lie within
+    ``reach_m`` of beams crossing it (:func:`~pyheracles.beams.one_face.spans_between`).
     """
     out = list(cuboids)
     fb = facet_beam.copy()
@@ -316,6 +320,25 @@ def add_one_face_beams(
 
     added: dict[int, list[int]] = {}  # beam (0-based) -> its facets
     n_multi = len(out)
+
+    def place(run: list[int], cub: BeamCuboid) -> None:
+        # a piece of a face already taken, cut off by a shadow or a crossing member
+        pts = xyz[np.concatenate([facets[i].index for i in run])]
+        for k, prev in added.items():
+            longer = replace(out[k], length=out[k].length + 4.0 * p.max_gap_m)
+            on = float(np.median(np.abs(longer.signed_distance(pts)))) <= tol
+            if on or collinear(out[k], cub, cos_par, 2.0 * p.max_gap_m):
+                merged = fit_pieces(prev + run)
+                if merged is not None:
+                    out[k] = merged
+                    added[k] = prev + run
+                    fb[run] = k + 1
+                    return
+        out.append(cub)
+        added[len(out) - 1] = list(run)
+        fb[run] = len(out)
+
+    framed: list[tuple[list[int], BeamCuboid]] = []  # short runs and their cuboids
     for run in runs:
         pts = xyz[np.concatenate([facets[i].index for i in run])]
         # a face of a beam found on several faces, past the end its facets reached
@@ -337,23 +360,25 @@ def add_one_face_beams(
             fb[run] = host + 1
             continue
         cub = fit(run, 2.0 * p.min_elongation)
-        if cub is None or covered(cub, out, tol):
+        if cub is None and reach_m is not None:
+            # too short for a one-face beam: judged once every longer run is placed
+            short = fit(run, p.min_elongation)
+            if short is not None:
+                framed.append((run, short))
             continue
-        # a piece of a face already taken, cut off by a shadow or a crossing member
-        for k, prev in added.items():
-            longer = replace(out[k], length=out[k].length + 4.0 * p.max_gap_m)
-            on = float(np.median(np.abs(longer.signed_distance(pts)))) <= tol
-            if on or collinear(out[k], cub, cos_par, 2.0 * p.max_gap_m):
-                merged = fit_pieces(prev + run)
-                if merged is not None:
-                    out[k] = merged
-                    added[k] = prev + run
-                    fb[run] = k + 1
-                    break
-        else:
-            out.append(cub)
-            added[len(out) - 1] = list(run)
-            fb[run] = len(out)
+        if cub is not None and not covered(cub, out, tol):
+            place(run, cub)
+    # a short band framed between two crossing beams is as long as its joints let
+    # it be: a straight facet's elongation is then enough (until none is added)
+    while framed:
+        rest = [(run, cub) for run, cub in framed if not spans_between(cub, out, reach_m, cos_par)]
+        if len(rest) == len(framed):
+            break
+        for run, cub in framed:
+            if any(run is r for r, _ in rest) or covered(cub, out, tol):
+                continue
+            place(run, cub)
+        framed = rest
     return out, fb
 
 
@@ -543,7 +568,17 @@ def segment_beams(
         tol = max(3.0 * float(np.median(rms)) if rms else 0.0, 0.01)
     if p.one_face:
         cuboids, facet_beam = add_one_face_beams(
-            arr, tree, facets, facet_beam, cuboids, p, bin_m, tol, free, fill=free_mask
+            arr,
+            tree,
+            facets,
+            facet_beam,
+            cuboids,
+            p,
+            bin_m,
+            tol,
+            free,
+            fill=free_mask,
+            reach_m=max(contact, 2.0 * tol),
         )
     claimed = np.zeros(len(arr), dtype=np.int32)  # beam of each facet point
     for f, g in zip(facets, facet_beam, strict=True):
