@@ -34,14 +34,17 @@ def _face(rng, x0, y0, x1, y1, z1, gaps=()) -> np.ndarray:
     return xyz
 
 
-def _aisled_front(tower: bool) -> np.ndarray:
+def _aisled_front(tower: bool, aisle_end_hidden: bool = False) -> np.ndarray:
     """A front on x = 0 (outer face) and x = T (inner), y from -7 to 7, 6 m high, and
     the nave's two arcade walls abutting it inside at y = +-4 (outer lines), 12 m long;
     with ``tower``, a tower's two side walls against its outer face at y = +-2, the
-    front's outer face between them unseen (inside the tower)."""
+    front's outer face between them unseen (inside the tower); with
+    ``aisle_end_hidden``, the front's inner face in the aisle at y < -4 unseen."""
     rng = np.random.default_rng(0)
     arcades = [(-4.0, -4.0 + T), (4.0 - T, 4.0)]
     inner_gaps = [(a + 7.0, b + 7.0) for a, b in arcades]
+    if aisle_end_hidden:
+        inner_gaps.append((-1.0, 3.0 + T))
     outer_gaps = [(5.0, 9.0)] if tower else []
     parts = [_face(rng, 0.0, -7.0, 0.0, 7.0, 6.0, outer_gaps),
              _face(rng, T, -7.0, T, 7.0, 6.0, inner_gaps)]  # fmt: skip
@@ -87,3 +90,20 @@ def test_a_tower_against_the_front_does_not_cut_it() -> None:
     inner = max(front[1].faces, key=lambda f: abs(f.d))
     y = xyz[inner.indices, 1]
     assert y.min() < -4.0 + T + 0.05 and y.max() > 4.0 - T - 0.05
+
+
+def test_front_is_cut_where_its_inner_face_stops_at_an_arcade() -> None:
+    """The front's inner face stops at an arcade, its outer face runs on (church draws
+    15 and 25: a south tower built into the aisle's west end hides the aisle's end
+    wall inside): the aisle's end wall (y -7 to -4) is a wall of its own, seen on its
+    outer face, and the nave's wall ends at the arcade.  Before: the nave's outer face
+    ran on to the aisle's corner, and the aisle's end wall was part of the nave's."""
+    xyz = _aisled_front(tower=False, aisle_end_hidden=True)
+    front = _front_walls(xyz)
+    assert len(front) == 3
+    aisle, nave = front[0], front[1]
+    assert len(aisle.faces) == 1 and len(nave.faces) == 2
+    y = xyz[aisle.faces[0].indices, 1]
+    assert y.max() < -4.0 + T and y.min() < -6.9
+    y = xyz[np.concatenate([f.indices for f in nave.faces]), 1]
+    assert y.min() > -4.0 - 0.05

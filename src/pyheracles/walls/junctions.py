@@ -17,11 +17,15 @@ import numpy as np
 
 from pyheracles.walls.model import Array, WallFace, WallParams
 
-__all__ = ["building_side", "cut_faces", "junction_cuts", "run_ends"]
+__all__ = ["beside_columns", "building_side", "cut_faces", "junction_cuts", "run_ends"]
 
 #: width of the columns of a face (m) in which it is seen to run on beside a junction
 _COLUMN_M = 0.1
 
+
+#: share of the columns that make a face run on beside a junction (80 % of
+#: ``min_length_m``) below which it stops there: a stray return or two, not a face
+_BARE_FRACTION = 0.25
 
 #: points of a wall within one column (``_COLUMN_M``) that make an end of it
 _END_POINTS = 5
@@ -58,6 +62,25 @@ def run_ends(u: Array, n: int = _END_POINTS, width: float = _COLUMN_M) -> tuple[
     if len(dense) == 0:
         return float(v[0]), float(v[-1])
     return float(v[dense[0]]), float(v[dense[-1] + n - 1])
+
+
+def beside_columns(u: Array, reach: float) -> tuple[int, int]:
+    """How many ``_COLUMN_M`` columns hold points of a face within ``reach`` m of a
+    junction, on either side of it: ``u`` are the face's positions along its wall
+    from the junction (negative side first).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> beside_columns(np.r_[np.linspace(-0.95, -0.05, 10), 0.35], 1.0)
+    (10, 1)
+    """
+    v = np.asarray(u, dtype=np.float64)
+    out = []
+    for s in (-1.0, 1.0):
+        w = s * v
+        out.append(len(np.unique(np.floor(w[(w > 0) & (w <= reach)] / _COLUMN_M))))
+    return out[0], out[1]
 
 
 def _face_u(xyz: Array, w: dict[str, Any], f: WallFace) -> Array:
@@ -99,12 +122,19 @@ def junction_cuts(xyz: Array, walls: list[dict[str, Any]], p: WallParams) -> lis
     corner is no junction), and when ``A``'s face on ``B``'s side runs on beside ``B``
     on both sides: at least 80 % of ``min_length_m`` covered in 0.1 m columns within
     ``min_length_m`` plus ``B``'s thickness (``max_thickness_m`` when not measured) of
-    ``B``'s plane.  An apse, a chancel, a tower, a porch or a buttress is built against
-    a wall from outside, and their walls do not cut it (the front of a church is one
-    wall with its tower, and the east wall one with its apse, whose arch opens in it);
-    the walls dividing the building inside (the arcades between nave and aisles) do.
-    A tower's walls also meet the front's outer face where that face stops (not seen
-    inside the tower).  Cuts closer than ``min_length_m`` are one, at their mean.
+    ``B``'s plane; or, ``A`` seen on both faces, when that face runs on beside ``B`` on
+    one side and stops at ``B`` on the other (fewer than a quarter of those columns,
+    ``_BARE_FRACTION``) while ``A``'s other face runs on beside ``B`` on both: the
+    front's inner face ends at the arcade where the aisle's end behind it is not seen,
+    and its outer face, running on, is the aisle's end wall seen on one face (church
+    draws 15 and 25: a south tower built into the aisle's west end hides it, and the
+    aisle's west wall was part of the nave's).  An apse, a chancel, a tower, a porch or
+    a buttress is built against a wall from outside, and their walls do not cut it (the
+    front of a church is one wall with its tower, and the east wall one with its apse,
+    whose arch opens in it); the walls dividing the building inside (the arcades
+    between nave and aisles) do.  A tower's walls also meet the front's outer face
+    where that face stops (not seen inside the tower).  Cuts closer than
+    ``min_length_m`` are one, at their mean.
     """
     ext = [_extent(xyz, w) for w in walls]
     cos_max = math.cos(math.radians(30.0))
@@ -150,13 +180,14 @@ def junction_cuts(xyz: Array, walls: list[dict[str, Any]], p: WallParams) -> lis
                 1.0, float(f.normal @ na)))  # fmt: skip
             thick_b = float(wb["thickness"])
             reach = p.min_length_m + (thick_b if math.isfinite(thick_b) else p.max_thickness_m)
-            uf = _face_u(xyz, wa, fa) - u_x
             need = 0.8 * p.min_length_m / _COLUMN_M
-            ok = True
-            for s in (-1.0, 1.0):
-                v = s * uf
-                cols = np.unique(np.floor(v[(v > 0) & (v <= reach)] / _COLUMN_M))
-                ok &= len(cols) >= need
+            near_cols = beside_columns(_face_u(xyz, wa, fa) - u_x, reach)
+            ok = min(near_cols) >= need
+            if not ok and len(wa["faces"]) == 2:  # A's face on B's side stops at B
+                fo = next(f for f in wa["faces"] if f is not fa)
+                far_cols = beside_columns(_face_u(xyz, wa, fo) - u_x, reach)
+                ok = (min(far_cols) >= need and max(near_cols) >= need
+                      and min(near_cols) <= _BARE_FRACTION * need)  # fmt: skip
             if ok:
                 found.append(u_x)
         found.sort()
