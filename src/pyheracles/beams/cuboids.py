@@ -101,6 +101,13 @@ def inward_normal(
 #: Share of the smaller section inside the larger that makes two parallel pieces
 #: overlapping along their axis one member (:func:`collinear`; 0.8 for pieces apart).
 OVERLAP_INSIDE_SHARE = 0.5
+#: How well a section size is known on a piece not seen on all four sides, metres:
+#: a side seen as no face is placed at the half-density edge of the faces next to
+#: it (or from the few points behind a one-face band), to within about a point
+#: spacing of a far member (1 cm at 10-20 m with the family's scanners, the step's
+#: size target).  Two such pieces of one member may differ by twice that: each is
+#: off by up to it, in opposite directions (:func:`same_section`).
+EDGE_SIZE_UNCERTAINTY_M = 0.01
 #: Fewest points on an unfaceted side of a beam that locate that side.
 _SPARSE_FACE_MIN_POINTS = 15
 #: Smallest share of the beam's length covered by those points (10 cm bins).
@@ -401,16 +408,25 @@ def same_section(a: BeamCuboid, b: BeamCuboid) -> bool:
     Both sections measured, at least one located (seen on two faces or more;
     the other may be seen on one face with its depth measured behind it: roof
     seed 29, a common rafter's foot seen on its side alone past a 1.6 m
-    shadow), their sizes within 10 % or 1 cm of each other, and each centre
+    shadow), their sizes within 10 % of each other or within the sum of the
+    two pieces' uncertainties of a size read at an edge
+    (``EDGE_SIZE_UNCERTAINTY_M`` each, for a piece not seen on all four
+    sides; at least that once), and each centre
     within a quarter of the other's section of its axis line.  Two members on
-    one line with the same section to the centimetre are rare; a member whose
+    one line with the same section to a centimetre or two are rare; a member whose
     middle lies in the shadow of a nearer one is not.
     """
     if max(a.faces_seen, b.faces_seen) < 2 or not (a.height_measured and b.height_measured):
         return False
     dims_a = np.sort([a.width, a.height])
     dims_b = np.sort([b.width, b.height])
-    if np.any(np.abs(dims_a - dims_b) > np.maximum(0.1 * np.maximum(dims_a, dims_b), 0.01)):
+    # each piece's sizes read at an edge are known to EDGE_SIZE_UNCERTAINTY_M; the
+    # difference of two such readings to twice that (roof draw 3: a common
+    # rafter's two pieces, 1.5 m apart past a shadow, 0.131 and 0.149 m deep for
+    # 0.141, each within 1 cm of it)
+    known = EDGE_SIZE_UNCERTAINTY_M * sum(int(c.faces_seen < 4) for c in (a, b))
+    tol = np.maximum(0.1 * np.maximum(dims_a, dims_b), max(known, EDGE_SIZE_UNCERTAINTY_M))
+    if np.any(np.abs(dims_a - dims_b) > tol):
         return False
     for x, y in ((a, b), (b, a)):
         d = y.centre - x.centre
