@@ -147,7 +147,11 @@ def fit_one_face_cuboid(
     ends within a beam depth, but for what pierces the roof (a chimney).
     Where neither side does (a face inside the room), the side points decide
     alone: a band whose edge points leave the plane on one side only is
-    convex towards the other.  A band is a channel (``None``) when points come
+    convex towards the other, or on both sides but along ``room_ratio`` times
+    more of the length on one (a member crossing near the face covers its own
+    width; the body's sides run along the band); a band from whose edges
+    nothing leaves on either side is a beam whose sides were not seen (a thin
+    slab, its depth not measured).  A band is a channel (``None``) when points come
     forward from its edges and neither edge has a side going back over
     ``min_cover`` of the length (:func:`going_back`: reaching past
     ``NOISE_TAIL_MARGINS`` noise margins, not the scatter of the band's own
@@ -251,6 +255,19 @@ def fit_one_face_cuboid(
         front = -1.0
     elif min(cover_lo, cover_hi) < min_cover <= max(cover_lo, cover_hi):
         front = 1.0 if cover_lo > cover_hi else -1.0
+    elif max(cover_lo, cover_hi) >= room_ratio * min(cover_lo, cover_hi):
+        # the body's own sides run along the whole band; what comes off the other
+        # side is a member crossing near the face, as long as it is wide (roof
+        # draw 3: a king post seen on one face, its side going back over the
+        # whole length, a rafter 0.22-0.58 m in front of it over a quarter)
+        front = 1.0 if cover_lo > cover_hi else -1.0
+    elif max(cover_lo, cover_hi) < min_cover:
+        # nothing leaves either edge (a tie inside the room seen on its side, its
+        # top and underside at grazing angles: roof draw 14, 3 points along 3.9 m):
+        # a band with no channel walls, its depth unknown; the thin slab lies on
+        # the side of the plane holding more of the cloud (its placement moves
+        # the slab by its own depth, a few millimetres)
+        front = 1.0 if far_pos >= far_neg else -1.0
     else:
         return None
     cover_ahead = cover_hi if front > 0 else cover_lo
