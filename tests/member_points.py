@@ -1,6 +1,6 @@
 """Points sampled on a generated timber member's faces, the F1 of a found beam against
-a member's points, the classes of the beams found on a roof draw, and a facet along x
-made from given points, shared by the beams tests."""
+a member's points, the classes of the beams found on a roof draw, a facet along x
+made from given points and a cuboid along given directions, shared by the beams tests."""
 
 from __future__ import annotations
 
@@ -69,4 +69,36 @@ def facet_along_x(xyz: np.ndarray, index: np.ndarray, normal: np.ndarray):
         length=float(np.ptp(pts @ x)),
         plane_rms=float(np.std((pts - pts.mean(axis=0)) @ normal)),
         parent=1,
+    )
+
+
+def oriented_cuboid(
+    centre,
+    axis,
+    side,
+    length: float,
+    width: float,
+    height: float,
+    *,
+    faces_seen: int = 1,
+    rms: float = 0.0,
+):
+    """A beam cuboid of the given sizes (metres) along ``axis``, its width along ``side``
+    made square to the axis, seen on ``faces_seen`` faces (one facet each) with its depth
+    measured."""
+    from pyheracles.beams.model import BeamCuboid
+
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    s = np.asarray(side, float) - (np.asarray(side, float) @ a) * a
+    s /= np.linalg.norm(s)
+    return BeamCuboid(
+        centre=np.asarray(centre, float),
+        axes=np.column_stack([a, s, np.cross(a, s)]),
+        length=length,
+        width=width,
+        height=height,
+        rms=rms,
+        n_facets=faces_seen,
+        faces_seen=faces_seen,
+        height_measured=True,
     )

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from member_points import oriented_cuboid
 from pyheracles.beams import BeamCuboid
 from pyheracles.beams.frame import FrameParams, frame_members, leaning
 from pyheracles.beams.joints import Joint
@@ -70,19 +71,7 @@ LADDER = NAMES.index("ladder")
 
 
 def cuboid(centre, axis, side, length, width, height) -> BeamCuboid:
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    s = np.asarray(side, float) - (np.asarray(side, float) @ a) * a
-    s /= np.linalg.norm(s)
-    return BeamCuboid(
-        centre=np.asarray(centre, float),
-        axes=np.column_stack([a, s, np.cross(a, s)]),
-        length=length,
-        width=width,
-        height=height,
-        rms=0.0,
-        n_facets=1,
-        faces_seen=1,
-    )
+    return oriented_cuboid(centre, axis, side, length, width, height)
 
 
 def joint(a: str, b: str, kind: str, at_a: float, at_b: float) -> Joint:

@@ -16,6 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from member_points import oriented_cuboid
 from pyheracles.beams.cuboids import EDGE_SIZE_UNCERTAINTY_M, join_pieces, same_section
 from pyheracles.beams.model import BeamCuboid
 
@@ -23,24 +24,9 @@ COS_PAR = float(np.cos(np.radians(5.0)))
 
 
 def _piece(centre, axis, across, length, width, height) -> BeamCuboid:
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    across = np.asarray(across, float)
-    across = across - (across @ axis) * axis
-    across /= np.linalg.norm(across)
-    return BeamCuboid(
-        centre=np.asarray(centre, float),
-        axes=np.column_stack([axis, across, np.cross(axis, across)]),
-        length=length,
-        width=width,
-        height=height,
-        rms=0.004,
-        n_facets=2,
-        faces_seen=2,
-        height_measured=True,
-    )
+    return oriented_cuboid(centre, axis, across, length, width, height, faces_seen=2, rms=0.004)
 
 
-# member 54's two pieces as join_pieces gets them (draw 3, noise draw 0)
 NEAR = _piece([10.6513, 0.705, 4.1821], [-0.0002, -0.7977, 0.603], [-1.0, -0.0052, -0.0071],
               1.4161, 0.1204, 0.1306)  # fmt: skip
 FAR = _piece([10.6516, 3.1522, 2.3415], [-0.0002, 0.7974, -0.6035], [0.9997, 0.0157, 0.0204],
